@@ -1,0 +1,47 @@
+# weft: the two commands are `make demo` (set up, run the main job) and `make test`.
+SHELL := /bin/bash
+PYTHON ?= python3
+VENV := .venv
+PY := $(VENV)/bin/python
+PIP := $(VENV)/bin/pip
+STAMP := $(VENV)/.weft-deps
+CPP_BUILD := build/cpp
+
+.PHONY: setup system-deps build demo test test-cpp test-py bench clean
+
+# Debian packages: compiler, CMake, Eigen 3.4, GoogleTest, Redis. Skipped when all present.
+system-deps:
+	@bash scripts/install-system-deps.sh
+
+$(STAMP): pyproject.toml scripts/install-system-deps.sh
+	$(MAKE) system-deps
+	test -x $(PY) || $(PYTHON) -m venv $(VENV)
+	$(PIP) install -q --upgrade pip
+	$(PIP) install -q "scikit-build-core>=0.10" "pybind11>=2.12" ninja
+	$(PIP) install -q -e ".[test]" --no-build-isolation
+	touch $(STAMP)
+
+setup: $(STAMP)
+
+# Rebuild the C++ extension after changing solver_cpp/.
+build: setup
+	$(PIP) install -q -e ".[test]" --no-build-isolation --no-deps
+
+demo: build
+	$(PY) scenes/generate.py
+	rm -f out/demo_flag.h5
+	$(VENV)/bin/weft run scenes/generated/demo_flag.yaml -o out/demo_flag.h5 --threads 2
+	$(VENV)/bin/weft info out/demo_flag.h5
+
+test-cpp: setup
+	cmake -S solver_cpp -B $(CPP_BUILD) -DCMAKE_BUILD_TYPE=Release -DWEFT_BUILD_PYTHON=OFF -DWEFT_BUILD_TESTS=ON >/dev/null
+	cmake --build $(CPP_BUILD) -j2
+	cd $(CPP_BUILD) && ctest --output-on-failure
+
+test-py: build
+	$(PY) -m pytest -q
+
+test: test-cpp test-py
+
+clean:
+	rm -rf build out scenes/generated

@@ -1,0 +1,226 @@
+"""The shot: what a user asks weft to simulate.
+
+SI units throughout (metres, kilograms, seconds). A shot is a JSON or YAML document; large
+arrays live in asset files referenced by path relative to the shot file (meshes as OBJ/PLY,
+animation as HDF5 or NPZ arrays), or may be given inline for small scenes and tests.
+
+Models are strict: unknown fields are rejected, numbers must be finite, and every constraint
+that can be checked without loading assets is checked here. Checks that need the assets (index
+ranges, degenerate triangles, animation shapes) are done by ``weft.scene`` and reported with the
+same field paths.
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+
+SHOT_FORMAT_VERSION = 1
+
+FiniteFloat = Annotated[float, Field(allow_inf_nan=False)]
+PositiveFloat = Annotated[float, Field(gt=0.0, allow_inf_nan=False)]
+NonNegativeFloat = Annotated[float, Field(ge=0.0, allow_inf_nan=False)]
+Vec3 = tuple[FiniteFloat, FiniteFloat, FiniteFloat]
+Vec2 = tuple[FiniteFloat, FiniteFloat]
+Triangle = tuple[int, int, int]
+Name = Annotated[str, Field(min_length=1, max_length=64, pattern=r"^[A-Za-z0-9_.-]+$")]
+AssetPath = Annotated[str, Field(min_length=1, max_length=256)]
+
+
+class StrictModel(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True, strict=False)
+
+
+class ArrayAsset(StrictModel):
+    """An array stored in an HDF5 (.h5/.hdf5) or NumPy (.npz/.npy) file next to the shot."""
+
+    path: AssetPath
+    key: str | None = Field(
+        default=None, description="Dataset name (HDF5) or array name (NPZ); default 'positions'."
+    )
+
+    @field_validator("path")
+    @classmethod
+    def _relative_path(cls, value: str) -> str:
+        return _check_relative_path(value)
+
+
+def _check_relative_path(value: str) -> str:
+    if value.startswith(("/", "\\")) or ":" in value:
+        raise ValueError("asset paths must be relative to the shot file")
+    if any(part == ".." for part in value.replace("\\", "/").split("/")):
+        raise ValueError("asset paths may not leave the shot's directory ('..')")
+    return value
+
+
+class MeshSource(StrictModel):
+    """A triangle mesh: a file (OBJ/PLY, read as-is without merging vertices) or inline arrays."""
+
+    path: AssetPath | None = None
+    vertices: list[Vec3] | None = None
+    faces: list[Triangle] | None = None
+
+    @field_validator("path")
+    @classmethod
+    def _relative_path(cls, value: str | None) -> str | None:
+        return None if value is None else _check_relative_path(value)
+
+    @model_validator(mode="after")
+    def _one_source(self) -> MeshSource:
+        inline = self.vertices is not None or self.faces is not None
+        if self.path is not None and inline:
+            raise ValueError("give either 'path' or inline 'vertices' and 'faces', not both")
+        if self.path is None and (self.vertices is None or self.faces is None):
+            raise ValueError("give 'path' to a mesh file, or both 'vertices' and 'faces'")
+        return self
+
+
+class RestShape(StrictModel):
+    """How the unstretched cloth is defined.
+
+    - ``initial``: the mesh's initial positions are at rest (flattened per triangle).
+    - ``positions``: per-vertex rest positions (a 3D rest shape; its dihedral angles are the
+      rest bending angles).
+    - ``uv``: per-corner (u, v) coordinates in metres, shape (faces, 3, 2), e.g. sewing-pattern
+      panels; u is the warp direction, v the weft. The rest shape is flat.
+    """
+
+    kind: Literal["initial", "positions", "uv"] = "initial"
+    positions: list[Vec3] | ArrayAsset | None = None
+    face_uvs: list[tuple[Vec2, Vec2, Vec2]] | ArrayAsset | None = None
+
+    @model_validator(mode="after")
+    def _data_matches_kind(self) -> RestShape:
+        if self.kind == "positions" and self.positions is None:
+            raise ValueError("kind 'positions' needs 'positions'")
+        if self.kind == "uv" and self.face_uvs is None:
+            raise ValueError("kind 'uv' needs 'face_uvs'")
+        if self.kind != "positions" and self.positions is not None:
+            raise ValueError(f"'positions' is only used with kind 'positions', not '{self.kind}'")
+        if self.kind != "uv" and self.face_uvs is not None:
+            raise ValueError(f"'face_uvs' is only used with kind 'uv', not '{self.kind}'")
+        return self
+
+
+class Material(StrictModel):
+    """Cloth material. Stiffnesses are membrane moduli (energy per rest area per unit strain^2)."""
+
+    density: PositiveFloat = Field(0.15, description="Areal density, kg/m^2.", le=100.0)
+    stretch_warp: PositiveFloat = Field(2000.0, description="Stretch stiffness along u (warp), N/m.")
+    stretch_weft: PositiveFloat = Field(2000.0, description="Stretch stiffness along v (weft), N/m.")
+    shear: NonNegativeFloat = Field(200.0, description="Shear stiffness, N/m.")
+    bend: NonNegativeFloat = Field(1e-5, description="Bending stiffness, N m.")
+    damping: NonNegativeFloat = Field(
+        0.002, description="Stiffness-proportional damping time along each condition's gradient, s.", le=10.0
+    )
+    thickness: PositiveFloat = Field(0.002, description="Collision thickness, m.", le=1.0)
+    friction: NonNegativeFloat = Field(0.3, description="Coulomb friction coefficient.", le=10.0)
+
+
+class Pin(StrictModel):
+    """Vertices held in place: fixed at their initial positions, or attached to the closest
+    point of an animated body (keeping their offset in that triangle's frame)."""
+
+    vertices: list[int] = Field(min_length=1)
+    body: Name | None = Field(default=None, description="Name of the body to follow; none: fixed in space.")
+
+
+class ClothPiece(StrictModel):
+    name: Name
+    mesh: MeshSource
+    rest: RestShape = RestShape()
+    material: Material = Material()
+    pins: list[Pin] = Field(default_factory=list)
+    initial_velocity: Vec3 = (0.0, 0.0, 0.0)
+    collide: bool | None = Field(default=None, description="Collide with bodies; default: when bodies exist.")
+    self_collide: bool | None = Field(default=None, description="Self-collision; default: scene switch.")
+
+
+class Body(StrictModel):
+    """A kinematic (animated) triangle mesh. Without animation it stays where its mesh is."""
+
+    name: Name
+    mesh: MeshSource
+    animation: ArrayAsset | None = Field(
+        default=None, description="Per-frame vertex positions, shape (frames, vertices, 3), one per shot frame."
+    )
+    collide: bool = True
+
+
+class Wind(StrictModel):
+    velocity: Vec3 = (0.0, 0.0, 0.0)
+    gust_amplitude: NonNegativeFloat = Field(0.0, description="Relative gust strength (0: steady).", le=10.0)
+    gust_frequency: NonNegativeFloat = Field(0.0, description="Gusts per second.", le=1000.0)
+
+
+class Environment(StrictModel):
+    gravity: Vec3 = (0.0, -9.81, 0.0)
+    air_drag: NonNegativeFloat = Field(0.0, description="Linear air drag, kg/(m^2 s), on velocity relative to wind.")
+    wind: Wind | None = None
+
+
+class SolverSettings(StrictModel):
+    cg_tolerance: PositiveFloat = Field(1e-5, lt=1.0, description="Relative residual at which CG stops.")
+    cg_max_iterations: int = Field(500, ge=1, le=100_000)
+    matrix_precision: Literal["float64", "float32"] = "float64"
+    linear_system: Literal["reference", "fast"] = Field(
+        "reference", description="Assembly and solve path; 'fast' arrives with the fast linear system."
+    )
+
+
+class Features(StrictModel):
+    """Physics switches. None means: decided from what the scene contains."""
+
+    collisions: bool | None = None
+    self_collision: bool | None = None
+    ccd: bool | None = None
+    gia: bool | None = None
+
+
+class Shot(StrictModel):
+    format_version: Literal[1] = SHOT_FORMAT_VERSION
+    name: Name
+    fps: PositiveFloat = Field(24.0, le=10_000.0)
+    frame_range: tuple[int, int] = Field(
+        (1, 48), description="First and last frame, inclusive. The first frame is the initial state."
+    )
+    substeps: int = Field(4, ge=1, le=1000, description="Implicit steps per frame.")
+    environment: Environment = Environment()
+    cloth: list[ClothPiece] = Field(min_length=1)
+    bodies: list[Body] = Field(default_factory=list)
+    solver: SolverSettings = SolverSettings()
+    features: Features = Features()
+
+    @field_validator("frame_range")
+    @classmethod
+    def _ordered_range(cls, value: tuple[int, int]) -> tuple[int, int]:
+        first, last = value
+        if last <= first:
+            raise ValueError(f"last frame ({last}) must be after the first ({first})")
+        if last - first > 1_000_000:
+            raise ValueError("at most 1,000,000 frames")
+        return value
+
+    @model_validator(mode="after")
+    def _names_and_references(self) -> Shot:
+        _unique([c.name for c in self.cloth], "cloth")
+        _unique([b.name for b in self.bodies], "bodies")
+        body_names = {b.name for b in self.bodies}
+        for i, piece in enumerate(self.cloth):
+            for j, pin in enumerate(piece.pins):
+                if pin.body is not None and pin.body not in body_names:
+                    raise ValueError(f"cloth[{i}].pins[{j}].body: no body named '{pin.body}'")
+        return self
+
+    @property
+    def frame_count(self) -> int:
+        return self.frame_range[1] - self.frame_range[0] + 1
+
+
+def _unique(names: list[str], field: str) -> None:
+    seen: set[str] = set()
+    for name in names:
+        if name in seen:
+            raise ValueError(f"{field}: duplicate name '{name}'")
+        seen.add(name)

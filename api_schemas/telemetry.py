@@ -1,0 +1,45 @@
+"""Per-frame telemetry: the timing and solver figures every frame reports.
+
+The same field list defines the HDF5 cache's telemetry table (``weft.cache``), the job-status
+API and the dashboard, so a field added here shows up everywhere.
+"""
+
+from __future__ import annotations
+
+from pydantic import BaseModel, ConfigDict
+
+# (name, numpy dtype, description). Order is the cache's column order.
+TELEMETRY_COLUMNS: list[tuple[str, str, str]] = [
+    ("frame", "i4", "frame number"),
+    ("build_seconds", "f8", "wall seconds computing forces and assembling the linear system"),
+    ("solve_seconds", "f8", "wall seconds in the pre-filtered PCG and the state update"),
+    ("collision_seconds", "f8", "wall seconds in collision detection and response"),
+    ("gia_seconds", "f8", "wall seconds in global intersection analysis"),
+    ("total_seconds", "f8", "wall seconds for the whole frame, cache write excluded"),
+    ("cg_iterations", "i4", "CG iterations summed over the frame's substeps"),
+    ("final_residual", "f8", "relative residual of the last substep's solve"),
+    ("substeps", "i4", "implicit steps taken in the frame"),
+    ("unconverged_substeps", "i4", "substeps whose CG stopped at the iteration cap"),
+    ("kinetic_energy", "f8", "kinetic energy at frame end, J"),
+    ("potential_energy", "f8", "gravitational plus elastic energy at frame end, J"),
+]
+
+
+class FrameTelemetry(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    frame: int
+    build_seconds: float
+    solve_seconds: float
+    collision_seconds: float
+    gia_seconds: float
+    total_seconds: float
+    cg_iterations: int
+    final_residual: float
+    substeps: int
+    unconverged_substeps: int
+    kinetic_energy: float
+    potential_energy: float
+
+
+assert list(FrameTelemetry.model_fields) == [c[0] for c in TELEMETRY_COLUMNS]

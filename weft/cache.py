@@ -1,0 +1,269 @@
+"""The per-shot HDF5 cache (layout: docs/cache-format.md).
+
+One file per shot. Per-frame positions and velocities are float32, one chunk per frame, in
+extendible datasets; a telemetry table has one row per frame. The file is written in SWMR
+mode and flushed after every frame, so a reader (``open_cache_reader``) sees completed frames
+while the shot runs. The ``/state`` group holds the exact double-precision solver state of the
+last finished frame, which is what a resumed run continues from.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import h5py
+import numpy as np
+
+from api_schemas import TELEMETRY_COLUMNS, FrameTelemetry
+
+CACHE_FORMAT = "weft-cache"
+CACHE_FORMAT_VERSION = 1
+TELEMETRY_DTYPE = np.dtype([(name, dtype) for name, dtype, _ in TELEMETRY_COLUMNS])
+
+
+class CacheError(RuntimeError):
+    pass
+
+
+@dataclass
+class SolverState:
+    frame_index: int  # index into the cache's frame rows (0 = first frame)
+    positions: np.ndarray
+    velocities: np.ndarray
+    warm_start: np.ndarray
+
+
+class CacheWriter:
+    """Appends frames to a cache. Use ``create`` for a new shot or ``resume`` to continue one."""
+
+    def __init__(self, file: h5py.File, path: Path) -> None:
+        self._file = file
+        self.path = path
+        self._positions = file["frames/positions"]
+        self._velocities = file["frames/velocities"]
+        self._frame_numbers = file["frames/frame"]
+        self._telemetry = file["telemetry"]
+        self._state = file["state"]
+
+    # -- construction -------------------------------------------------------------------
+    @classmethod
+    def create(cls, path: str | Path, scene: Any, weft_version: str, threads: int) -> CacheWriter:
+        from weft.scene import Scene  # local import: the cache module has no solver dependency
+
+        assert isinstance(scene, Scene)
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_name(path.name + ".partial")
+        f = h5py.File(tmp, "w", libver="latest")
+        try:
+            cls._write_header(f, scene, weft_version, threads)
+        except BaseException:
+            f.close()
+            tmp.unlink(missing_ok=True)
+            raise
+        f.close()
+        os.replace(tmp, path)
+        f = h5py.File(path, "r+", libver="latest")
+        f.swmr_mode = True
+        return cls(f, path)
+
+    @staticmethod
+    def _write_header(f: h5py.File, scene: Any, weft_version: str, threads: int) -> None:
+        shot = scene.shot
+        n = scene.vertex_count
+        f.attrs.update(
+            {
+                "format": CACHE_FORMAT,
+                "format_version": CACHE_FORMAT_VERSION,
+                "weft_version": weft_version,
+                "shot_name": shot.name,
+                "shot_hash": scene.shot_hash,
+                "shot_json": shot.model_dump_json(),
+                "fps": shot.fps,
+                "units": "m",
+                "frame_first": shot.frame_range[0],
+                "frame_last": shot.frame_range[1],
+                "frames_planned": shot.frame_count,
+                "substeps": shot.substeps,
+                "threads": threads,
+                "created_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+                "status": "running",
+                "error": "",
+            }
+        )
+        cloth = f.create_group("cloth")
+        cloth.create_dataset("faces", data=scene.faces.astype(np.int32))
+        cloth.create_dataset("rest_uv", data=scene.face_uv)
+        cloth.create_dataset("initial_positions", data=scene.positions)
+        pieces = cloth.create_group("pieces")
+        for piece in scene.pieces:
+            g = pieces.create_group(piece.name)
+            g.attrs.update(
+                {
+                    "vertex_offset": piece.vertex_offset,
+                    "vertex_count": piece.vertex_count,
+                    "face_offset": piece.face_offset,
+                    "face_count": len(piece.faces),
+                }
+            )
+            g.create_dataset("faces", data=piece.faces)
+        bodies = f.create_group("bodies")
+        for body in scene.bodies:
+            bodies.create_group(body.name).create_dataset("faces", data=body.faces)
+        frames = f.create_group("frames")
+        for name in ("positions", "velocities"):
+            frames.create_dataset(
+                name, shape=(0, n, 3), maxshape=(None, n, 3), chunks=(1, n, 3), dtype=np.float32
+            )
+        frames.create_dataset("frame", shape=(0,), maxshape=(None,), chunks=(256,), dtype=np.int32)
+        f.create_dataset("telemetry", shape=(0,), maxshape=(None,), chunks=(64,), dtype=TELEMETRY_DTYPE)
+        state = f.create_group("state")
+        state.create_dataset("frame_index", data=np.array([-1], dtype=np.int64))
+        state.create_dataset("positions", data=np.zeros((n, 3)))
+        state.create_dataset("velocities", data=np.zeros((n, 3)))
+        state.create_dataset("warm_start", data=np.zeros(3 * n))
+
+    @classmethod
+    def resume(cls, path: str | Path, shot_hash: str) -> tuple[CacheWriter, SolverState | None]:
+        """Reopen a cache left by an interrupted run, dropping rows past its saved state.
+
+        A writer that died may leave the file marked as open; the completed part is copied into
+        a fresh file (atomically replaced) so that nothing a finished frame wrote is lost.
+        """
+        path = Path(path)
+        with open_cache_reader(path) as old:
+            if old.attrs.get("format") != CACHE_FORMAT:
+                raise CacheError(f"{path} is not a weft cache")
+            if old.attrs["shot_hash"] != shot_hash:
+                raise CacheError(f"{path} was written for a different shot (hash mismatch); refusing to resume")
+            state_index = int(old["state/frame_index"][0])
+            tmp = path.with_name(path.name + ".resume")
+            with h5py.File(tmp, "w", libver="latest") as new:
+                new.attrs.update(dict(old.attrs))
+                new.attrs["status"] = "running"
+                new.attrs["error"] = ""
+                for name in ("cloth", "bodies", "state"):
+                    old.copy(old[name], new, name)
+                frames = new.create_group("frames")
+                rows = state_index + 1
+                for name in ("positions", "velocities"):
+                    src = old["frames/" + name]
+                    dst = frames.create_dataset(
+                        name, shape=(rows, *src.shape[1:]), maxshape=(None, *src.shape[1:]),
+                        chunks=(1, *src.shape[1:]), dtype=np.float32,
+                    )
+                    for k in range(rows):
+                        dst[k] = src[k]
+                frames.create_dataset(
+                    "frame", data=old["frames/frame"][:rows], maxshape=(None,), chunks=(256,), dtype=np.int32
+                )
+                new.create_dataset(
+                    "telemetry", data=old["telemetry"][:rows], maxshape=(None,), chunks=(64,), dtype=TELEMETRY_DTYPE
+                )
+        os.replace(tmp, path)
+        f = h5py.File(path, "r+", libver="latest")
+        f.swmr_mode = True
+        writer = cls(f, path)
+        return writer, writer.saved_state()
+
+    # -- writing --------------------------------------------------------------------------
+    @property
+    def frames_written(self) -> int:
+        return int(self._frame_numbers.shape[0])
+
+    def saved_state(self) -> SolverState | None:
+        index = int(self._state["frame_index"][0])
+        if index < 0:
+            return None
+        return SolverState(
+            frame_index=index,
+            positions=self._state["positions"][()],
+            velocities=self._state["velocities"][()],
+            warm_start=self._state["warm_start"][()],
+        )
+
+    def append(
+        self,
+        frame_number: int,
+        positions: np.ndarray,
+        velocities: np.ndarray,
+        warm_start: np.ndarray,
+        telemetry: FrameTelemetry,
+    ) -> None:
+        k = self.frames_written
+        for ds, data in ((self._positions, positions), (self._velocities, velocities)):
+            ds.resize(k + 1, axis=0)
+            ds[k] = data.astype(np.float32)
+        self._frame_numbers.resize(k + 1, axis=0)
+        self._frame_numbers[k] = frame_number
+        row = np.zeros(1, dtype=TELEMETRY_DTYPE)
+        for name in TELEMETRY_DTYPE.names:
+            row[name] = getattr(telemetry, name)
+        self._telemetry.resize(k + 1, axis=0)
+        self._telemetry[k] = row[0]
+        # The exact state last: a reader or a resume never sees state ahead of the frames.
+        self._state["positions"][...] = positions
+        self._state["velocities"][...] = velocities
+        self._state["warm_start"][...] = warm_start
+        self._state["frame_index"][0] = k
+        self._file.flush()
+
+    def close(self, status: str = "complete", error: str = "") -> None:
+        """Close the file and record how the run ended ('complete', 'failed', 'cancelled', ...)."""
+        if not self._file.id.valid:
+            return
+        self._file.close()
+        with h5py.File(self.path, "r+", libver="latest") as f:
+            f.attrs["status"] = status
+            f.attrs["error"] = error
+
+
+def open_cache_reader(path: str | Path) -> h5py.File:
+    """Open a cache for reading, also while a run is still writing it (SWMR)."""
+    try:
+        return h5py.File(path, "r", libver="latest", swmr=True)
+    except OSError as exc:
+        raise CacheError(f"cannot open cache {path}: {exc}") from None
+
+
+def describe_cache(path: str | Path) -> dict[str, Any]:
+    """Summary of a cache for `weft info` and the API."""
+    with open_cache_reader(path) as f:
+        if f.attrs.get("format") != CACHE_FORMAT:
+            raise CacheError(f"{path} is not a weft cache")
+        telemetry = f["telemetry"][()]
+        frames = f["frames/frame"][()]
+        pieces = {
+            name: {k: int(v) for k, v in g.attrs.items()} for name, g in f["cloth/pieces"].items()
+        }
+        simulated = telemetry[telemetry["substeps"] > 0]
+        summary: dict[str, Any] = {
+            "path": str(path),
+            "shot_name": str(f.attrs["shot_name"]),
+            "shot_hash": str(f.attrs["shot_hash"]),
+            "weft_version": str(f.attrs["weft_version"]),
+            "status": str(f.attrs["status"]),
+            "error": str(f.attrs["error"]),
+            "fps": float(f.attrs["fps"]),
+            "frame_range": [int(f.attrs["frame_first"]), int(f.attrs["frame_last"])],
+            "frames_written": int(len(frames)),
+            "frames_planned": int(f.attrs["frames_planned"]),
+            "last_frame": int(frames[-1]) if len(frames) else None,
+            "vertices": int(f["frames/positions"].shape[1]),
+            "faces": int(f["cloth/faces"].shape[0]),
+            "pieces": pieces,
+            "bodies": list(f["bodies"].keys()),
+            "shot": json.loads(f.attrs["shot_json"]),
+        }
+        if len(simulated):
+            summary["mean_seconds_per_frame"] = {
+                key: float(np.mean(simulated[key + "_seconds"])) for key in ("build", "solve", "collision", "gia", "total")
+            }
+            summary["cg_iterations_per_frame"] = float(np.mean(simulated["cg_iterations"]))
+            summary["unconverged_substeps"] = int(np.sum(simulated["unconverged_substeps"]))
+        return summary

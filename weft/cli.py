@@ -1,0 +1,153 @@
+"""The `weft` command line."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+from typing import Annotated, Optional
+
+import typer
+from rich.console import Console
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+from rich.table import Table
+
+app = typer.Typer(
+    name="weft",
+    help="weft: implicit cloth simulation for film and animation pipelines.",
+    no_args_is_help=True,
+    add_completion=False,
+    pretty_exceptions_enable=False,
+)
+console = Console(stderr=True)
+out = Console()
+
+
+def _fail(message: str, code: int = 2) -> None:
+    console.print(f"[bold red]error:[/] {message}", highlight=False)
+    raise typer.Exit(code)
+
+
+def _load_scene(shot_path: Path):  # type: ignore[no-untyped-def]
+    from weft.scene import ShotError, ShotValidationError, load_shot_file, resolve_scene
+
+    try:
+        shot = load_shot_file(shot_path)
+        return resolve_scene(shot, shot_path.parent)
+    except ShotValidationError as exc:
+        lines = "\n".join(f"  {e.field}: {e.problem}" for e in exc.errors)
+        _fail(f"{shot_path} is not a valid shot:\n{lines}")
+    except ShotError as exc:
+        _fail(f"{shot_path}: {exc}")
+
+
+@app.command()
+def validate(shot: Annotated[Path, typer.Argument(help="Shot file (.json/.yaml)")]) -> None:
+    """Check a shot and its assets without simulating."""
+    scene = _load_scene(shot)
+    out.print(
+        f"[green]ok[/] {scene.shot.name}: {len(scene.pieces)} cloth piece(s), {scene.vertex_count} vertices, "
+        f"{len(scene.faces)} faces, {len(scene.bodies)} bodies, {scene.frame_count} frames"
+    )
+
+
+@app.command()
+def run(
+    shot: Annotated[Path, typer.Argument(help="Shot file (.json/.yaml)")],
+    output: Annotated[Path, typer.Option("-o", "--output", help="HDF5 cache to write")],
+    frames: Annotated[Optional[int], typer.Option("--frames", min=1, help="Only the first N frames")] = None,
+    threads: Annotated[int, typer.Option("--threads", min=1, max=256, help="Solver threads")] = 1,
+    resume: Annotated[bool, typer.Option("--resume", help="Continue an interrupted cache")] = False,
+    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar")] = False,
+) -> None:
+    """Simulate a shot into an HDF5 cache."""
+    from weft.cache import CacheError
+    from weft.runner import FrameRecord, ShotRunner, SolverFailure
+
+    scene = _load_scene(shot)
+    if output.exists() and not resume:
+        _fail(f"{output} exists; remove it or pass --resume to continue it")
+    runner = ShotRunner(scene, output, threads=threads, frames=frames, resume=resume)
+    progress = Progress(
+        TextColumn("[bold]{task.description}"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TextColumn("{task.fields[rate]}"),
+        TimeElapsedColumn(),
+        TextColumn("ETA"),
+        TimeRemainingColumn(),
+        console=console,
+        disable=quiet,
+    )
+
+    def on_frame(record: FrameRecord) -> None:
+        progress.update(
+            task,
+            completed=record.index + 1,
+            description=f"frame {record.frame}",
+            rate=f"{record.wall_seconds:.3f} s/frame",
+        )
+
+    try:
+        with progress:
+            task = progress.add_task(scene.shot.name, total=runner.frames_total, rate="")
+            summary = runner.run(on_frame=on_frame)
+    except SolverFailure as exc:
+        _fail(f"solver failed at frame {exc.frame}: {exc.reason} (frames before it are in {output})", code=1)
+    except CacheError as exc:
+        _fail(str(exc))
+    _print_summary(output, summary.wall_seconds)
+
+
+def _print_summary(cache: Path, wall_seconds: float) -> None:
+    from weft.cache import describe_cache
+
+    info = describe_cache(cache)
+    table = Table(title=f"weft: {info['shot_name']}", show_header=False, title_justify="left")
+    table.add_row("cache", str(cache))
+    table.add_row("status", info["status"])
+    table.add_row("frames", f"{info['frames_written']} of {info['frames_planned']}")
+    table.add_row("vertices / faces", f"{info['vertices']} / {info['faces']}")
+    if "mean_seconds_per_frame" in info:
+        m = info["mean_seconds_per_frame"]
+        table.add_row(
+            "mean s/frame",
+            f"build {m['build']:.4f}  solve {m['solve']:.4f}  collision {m['collision']:.4f}  "
+            f"GIA {m['gia']:.4f}  total {m['total']:.4f}",
+        )
+        table.add_row("CG iterations/frame", f"{info['cg_iterations_per_frame']:.1f}")
+        table.add_row("unconverged substeps", str(info["unconverged_substeps"]))
+    table.add_row("wall time", f"{wall_seconds:.2f} s")
+    out.print(table)
+
+
+@app.command()
+def info(
+    cache: Annotated[Path, typer.Argument(help="HDF5 cache written by weft")],
+    as_json: Annotated[bool, typer.Option("--json", help="Machine-readable output")] = False,
+) -> None:
+    """Show what a cache holds."""
+    from weft.cache import CacheError, describe_cache
+
+    if not cache.is_file():
+        _fail(f"no such file: {cache}")
+    try:
+        summary = describe_cache(cache)
+    except CacheError as exc:
+        _fail(str(exc))
+    if as_json:
+        out.print_json(json.dumps(summary))
+        return
+    summary.pop("shot")
+    table = Table(title=f"{cache}", show_header=False, title_justify="left")
+    for key, value in summary.items():
+        table.add_row(key, json.dumps(value) if isinstance(value, (dict, list)) else str(value))
+    out.print(table)
+
+
+def main() -> None:  # pragma: no cover
+    app()
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(app())

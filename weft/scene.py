@@ -1,0 +1,453 @@
+"""Turn a validated Shot plus its asset files into flat arrays for the C++ solver.
+
+Every problem found in the data is reported as a ShotError whose ``field`` is the path of the
+offending field in the shot (``cloth[0].mesh.faces[12]``), so the CLI and the HTTP API can say
+exactly what is wrong. Nothing here trusts an asset path: paths are resolved inside the shot's
+directory and may not leave it.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+from pydantic import ValidationError
+
+from api_schemas import ArrayAsset, MeshSource, Shot
+
+MESH_SUFFIXES = {".obj", ".ply"}
+ARRAY_SUFFIXES = {".npz", ".npy", ".h5", ".hdf5"}
+MAX_VERTICES = 5_000_000
+
+
+class ShotError(ValueError):
+    """One problem with a shot, located by its field path."""
+
+    def __init__(self, field: str, problem: str) -> None:
+        super().__init__(f"{field}: {problem}")
+        self.field = field
+        self.problem = problem
+
+
+class ShotValidationError(ValueError):
+    """Several problems at once (from schema validation)."""
+
+    def __init__(self, errors: list[ShotError]) -> None:
+        super().__init__("; ".join(str(e) for e in errors))
+        self.errors = errors
+
+
+def format_location(loc: tuple[Any, ...]) -> str:
+    out = ""
+    for part in loc:
+        if isinstance(part, int):
+            out += f"[{part}]"
+        else:
+            out += ("." if out else "") + str(part)
+    return out or "shot"
+
+
+def parse_shot(document: dict[str, Any]) -> Shot:
+    """Validate a shot document; raise ShotValidationError listing every schema problem."""
+    try:
+        return Shot.model_validate(document)
+    except ValidationError as exc:
+        errors = []
+        for err in exc.errors(include_url=False):
+            # Drop pydantic's union-branch tags (e.g. 'list[...]', 'ArrayAsset') from the path.
+            loc = tuple(p for p in err["loc"] if isinstance(p, int) or not _is_type_tag(str(p)))
+            message = err["msg"].removeprefix("Value error, ")
+            errors.append(ShotError(format_location(loc), message))
+        raise ShotValidationError(errors) from None
+
+
+def _is_type_tag(part: str) -> bool:
+    return "[" in part or part[:1].isupper() or part in {"function-after", "function-before"}
+
+
+def load_shot_file(path: str | Path) -> Shot:
+    """Read a shot from a .json, .yaml or .yml file."""
+    path = Path(path)
+    if not path.is_file():
+        raise ShotError("shot", f"file not found: {path}")
+    text = path.read_text(encoding="utf-8")
+    try:
+        if path.suffix.lower() == ".json":
+            document = json.loads(text)
+        elif path.suffix.lower() in {".yaml", ".yml"}:
+            document = yaml.safe_load(text)
+        else:
+            raise ShotError("shot", f"unknown shot file type '{path.suffix}' (use .json, .yaml or .yml)")
+    except (json.JSONDecodeError, yaml.YAMLError) as exc:
+        raise ShotError("shot", f"cannot parse {path.name}: {exc}") from None
+    if not isinstance(document, dict):
+        raise ShotError("shot", "the document must be a mapping of fields")
+    return parse_shot(document)
+
+
+@dataclass
+class BodyArrays:
+    name: str
+    faces: np.ndarray  # (F, 3) int32
+    frames: np.ndarray  # (frame_count, V, 3) float64
+
+
+@dataclass
+class PieceArrays:
+    name: str
+    vertex_offset: int
+    vertex_count: int
+    face_offset: int
+    faces: np.ndarray  # (F, 3) int32, local indices
+
+
+@dataclass
+class Scene:
+    """A shot with every asset loaded and checked; cloth pieces concatenated."""
+
+    shot: Shot
+    shot_hash: str
+    pieces: list[PieceArrays]
+    positions: np.ndarray
+    velocities: np.ndarray
+    faces: np.ndarray
+    face_uv: np.ndarray  # (F, 6)
+    rest_positions: np.ndarray  # (N, 3) or (0, 3) for flat (uv) rest shapes
+    face_material: dict[str, np.ndarray]
+    fixed_pins: np.ndarray
+    body_pin_vertices: np.ndarray
+    body_pin_bodies: np.ndarray
+    bodies: list[BodyArrays] = field(default_factory=list)
+
+    @property
+    def vertex_count(self) -> int:
+        return int(self.positions.shape[0])
+
+    @property
+    def frame_count(self) -> int:
+        return self.shot.frame_count
+
+
+def _resolve_asset(base_dir: Path, relative: str, field_path: str, suffixes: set[str]) -> Path:
+    base = base_dir.resolve()
+    candidate = (base / relative).resolve()
+    if not candidate.is_relative_to(base):
+        raise ShotError(field_path, "asset path leaves the shot's directory")
+    if candidate.suffix.lower() not in suffixes:
+        raise ShotError(field_path, f"unsupported file type '{candidate.suffix}' (expected one of {sorted(suffixes)})")
+    if not candidate.is_file():
+        raise ShotError(field_path, f"file not found: {relative}")
+    return candidate
+
+
+def load_array(base_dir: Path, asset: ArrayAsset, field_path: str) -> np.ndarray:
+    path = _resolve_asset(base_dir, asset.path, field_path + ".path", ARRAY_SUFFIXES)
+    key = asset.key or "positions"
+    suffix = path.suffix.lower()
+    try:
+        if suffix == ".npy":
+            return np.asarray(np.load(path, allow_pickle=False), dtype=np.float64)
+        if suffix == ".npz":
+            with np.load(path, allow_pickle=False) as archive:
+                if key not in archive:
+                    raise ShotError(field_path + ".key", f"'{key}' not in {asset.path} (has {sorted(archive.files)})")
+                return np.asarray(archive[key], dtype=np.float64)
+        import h5py
+
+        with h5py.File(path, "r") as f:
+            if key not in f or not isinstance(f[key], h5py.Dataset):
+                raise ShotError(field_path + ".key", f"no dataset '{key}' in {asset.path}")
+            return np.asarray(f[key][()], dtype=np.float64)
+    except ShotError:
+        raise
+    except (OSError, ValueError) as exc:
+        raise ShotError(field_path, f"cannot read {asset.path}: {exc}") from None
+
+
+def load_mesh(base_dir: Path, mesh: MeshSource, field_path: str) -> tuple[np.ndarray, np.ndarray]:
+    """Vertices (V, 3) float64 and faces (F, 3) int64, checked for finiteness and index range."""
+    if mesh.path is not None:
+        path = _resolve_asset(base_dir, mesh.path, field_path + ".path", MESH_SUFFIXES)
+        import trimesh
+
+        try:
+            # process=False and maintain_order=True keep the file's vertices as they are: merging
+            # or splitting at UV seams would silently change the cloth's topology.
+            loaded = trimesh.load(path, process=False, maintain_order=True, force="mesh")
+        except Exception as exc:  # trimesh raises many types for malformed files
+            raise ShotError(field_path + ".path", f"cannot read mesh {mesh.path}: {exc}") from None
+        vertices = np.asarray(loaded.vertices, dtype=np.float64).reshape(-1, 3)
+        faces = np.asarray(loaded.faces, dtype=np.int64).reshape(-1, 3)
+        where = field_path
+    else:
+        vertices = np.asarray(mesh.vertices, dtype=np.float64).reshape(-1, 3)
+        faces = np.asarray(mesh.faces, dtype=np.int64).reshape(-1, 3)
+        where = field_path
+    if len(vertices) == 0:
+        raise ShotError(where + ".vertices", "mesh is empty (no vertices)")
+    if len(faces) == 0:
+        raise ShotError(where + ".faces", "mesh has no faces")
+    if len(vertices) > MAX_VERTICES:
+        raise ShotError(where + ".vertices", f"{len(vertices)} vertices exceeds the limit of {MAX_VERTICES}")
+    check_finite(vertices, where + ".vertices")
+    check_faces(faces, len(vertices), where + ".faces")
+    return vertices, faces
+
+
+def check_finite(array: np.ndarray, field_path: str) -> None:
+    bad = ~np.isfinite(array)
+    if bad.any():
+        index = np.argwhere(bad)[0]
+        value = array[tuple(index)]
+        kind = "NaN" if np.isnan(value) else "infinite"
+        location = "".join(f"[{i}]" for i in index[:-1]) if array.ndim > 1 else f"[{index[0]}]"
+        raise ShotError(f"{field_path}{location}", f"coordinate is {kind}")
+
+
+def check_faces(faces: np.ndarray, vertex_count: int, field_path: str) -> None:
+    out_of_range = (faces < 0) | (faces >= vertex_count)
+    if out_of_range.any():
+        f, c = np.argwhere(out_of_range)[0]
+        raise ShotError(
+            f"{field_path}[{f}]",
+            f"vertex index {faces[f, c]} out of range (mesh has {vertex_count} vertices)",
+        )
+    repeated = (faces[:, 0] == faces[:, 1]) | (faces[:, 1] == faces[:, 2]) | (faces[:, 0] == faces[:, 2])
+    if repeated.any():
+        f = int(np.argmax(repeated))
+        raise ShotError(f"{field_path}[{f}]", f"triangle repeats a vertex {faces[f].tolist()}")
+
+
+def triangle_uvs_from_positions(positions: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """Per-corner (u, v) of each triangle flattened into its own plane, in metres.
+
+    The warp direction u is world X projected onto the triangle (world Y where the triangle
+    faces X); v completes a right-handed frame with the normal. Give explicit UVs for control.
+    """
+    p0, p1, p2 = (positions[faces[:, k]] for k in range(3))
+    normal = np.cross(p1 - p0, p2 - p0)
+    length = np.linalg.norm(normal, axis=1, keepdims=True)
+    normal = normal / np.where(length > 0.0, length, 1.0)
+    axis = np.where(np.abs(normal[:, :1]) > 0.9, np.array([[0.0, 1.0, 0.0]]), np.array([[1.0, 0.0, 0.0]]))
+    u_dir = axis - np.sum(axis * normal, axis=1, keepdims=True) * normal
+    u_dir /= np.maximum(np.linalg.norm(u_dir, axis=1, keepdims=True), 1e-300)
+    v_dir = np.cross(normal, u_dir)
+    uv = np.zeros((len(faces), 6))
+    for k, p in enumerate((p0, p1, p2)):
+        d = p - p0
+        uv[:, 2 * k] = np.sum(d * u_dir, axis=1)
+        uv[:, 2 * k + 1] = np.sum(d * v_dir, axis=1)
+    return uv
+
+
+def check_rest_areas(face_uv: np.ndarray, field_path: str) -> None:
+    e1 = face_uv[:, 2:4] - face_uv[:, 0:2]
+    e2 = face_uv[:, 4:6] - face_uv[:, 0:2]
+    twice_area = np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
+    scale = np.maximum(np.sum(e1 * e1, axis=1), np.sum(e2 * e2, axis=1))
+    degenerate = ~(twice_area > 1e-12 * scale) | ~(twice_area > 1e-16)
+    if degenerate.any():
+        f = int(np.argmax(degenerate))
+        raise ShotError(f"{field_path}[{f}]", "rest triangle has zero area")
+
+
+def shot_hash(shot: Shot, base_dir: Path) -> str:
+    """SHA-256 over the canonical shot and the bytes of every asset it references."""
+    digest = hashlib.sha256(shot.model_dump_json().encode())
+    for path in sorted(_asset_paths(shot)):
+        candidate = (base_dir / path).resolve()
+        if candidate.is_file():
+            digest.update(path.encode())
+            digest.update(hashlib.sha256(candidate.read_bytes()).digest())
+    return digest.hexdigest()
+
+
+def _asset_paths(shot: Shot) -> set[str]:
+    paths: set[str] = set()
+    for piece in shot.cloth:
+        if piece.mesh.path:
+            paths.add(piece.mesh.path)
+        for value in (piece.rest.positions, piece.rest.face_uvs):
+            if isinstance(value, ArrayAsset):
+                paths.add(value.path)
+    for body in shot.bodies:
+        if body.mesh.path:
+            paths.add(body.mesh.path)
+        if body.animation is not None:
+            paths.add(body.animation.path)
+    return paths
+
+
+def resolve_scene(shot: Shot, base_dir: str | Path) -> Scene:
+    """Load every asset of a shot, check it, and concatenate the cloth pieces."""
+    base_dir = Path(base_dir)
+    positions, velocities, faces, face_uv, rest = [], [], [], [], []
+    materials: dict[str, list[np.ndarray]] = {
+        k: [] for k in ("density", "stretch_warp", "stretch_weft", "shear", "bend", "damping")
+    }
+    pieces: list[PieceArrays] = []
+    fixed_pins: list[int] = []
+    body_pin_vertices: list[int] = []
+    body_pin_bodies: list[int] = []
+    body_index = {b.name: i for i, b in enumerate(shot.bodies)}
+    vertex_offset = face_offset = 0
+    for i, piece in enumerate(shot.cloth):
+        where = f"cloth[{i}]"
+        vertices, piece_faces = load_mesh(base_dir, piece.mesh, where + ".mesh")
+        unused = np.setdiff1d(np.arange(len(vertices)), np.unique(piece_faces))
+        if len(unused):
+            raise ShotError(
+                where + ".mesh",
+                f"{len(unused)} vertices belong to no face (first: {unused[:5].tolist()}); remove them",
+            )
+        if piece.rest.kind == "uv":
+            uv = _rest_array(base_dir, piece.rest.face_uvs, where + ".rest.face_uvs")
+            if uv.shape not in {(len(piece_faces), 3, 2), (len(piece_faces), 6)}:
+                raise ShotError(
+                    where + ".rest.face_uvs", f"shape {uv.shape} does not match ({len(piece_faces)}, 3, 2)"
+                )
+            check_finite(uv.reshape(len(piece_faces), 6), where + ".rest.face_uvs")
+            piece_uv = uv.reshape(len(piece_faces), 6)
+            piece_rest = np.full((len(vertices), 3), np.nan)
+            uv_field = where + ".rest.face_uvs"
+        else:
+            if piece.rest.kind == "positions":
+                piece_rest = _rest_array(base_dir, piece.rest.positions, where + ".rest.positions")
+                if piece_rest.shape != vertices.shape:
+                    raise ShotError(
+                        where + ".rest.positions",
+                        f"shape {piece_rest.shape} does not match the mesh's vertices {vertices.shape}",
+                    )
+                check_finite(piece_rest, where + ".rest.positions")
+                uv_field = where + ".rest.positions: triangle"
+            else:
+                piece_rest = vertices
+                uv_field = where + ".mesh.faces"
+            piece_uv = triangle_uvs_from_positions(piece_rest, piece_faces)
+        check_rest_areas(piece_uv, uv_field)
+
+        for j, pin in enumerate(piece.pins):
+            indices = np.asarray(pin.vertices, dtype=np.int64)
+            bad = (indices < 0) | (indices >= len(vertices))
+            if bad.any():
+                k = int(np.argmax(bad))
+                raise ShotError(
+                    f"{where}.pins[{j}].vertices[{k}]",
+                    f"vertex {indices[k]} out of range (mesh has {len(vertices)} vertices)",
+                )
+            if pin.body is None:
+                fixed_pins.extend((indices + vertex_offset).tolist())
+            else:
+                body_pin_vertices.extend((indices + vertex_offset).tolist())
+                body_pin_bodies.extend([body_index[pin.body]] * len(indices))
+
+        pieces.append(PieceArrays(piece.name, vertex_offset, len(vertices), face_offset, piece_faces.astype(np.int32)))
+        positions.append(vertices)
+        velocities.append(np.tile(np.asarray(piece.initial_velocity, dtype=np.float64), (len(vertices), 1)))
+        faces.append(piece_faces + vertex_offset)
+        face_uv.append(piece_uv)
+        rest.append(piece_rest)
+        m = piece.material
+        for key in materials:
+            materials[key].append(np.full(len(piece_faces), float(getattr(m, key))))
+        vertex_offset += len(vertices)
+        face_offset += len(piece_faces)
+
+    all_pins = fixed_pins + body_pin_vertices
+    if len(set(all_pins)) != len(all_pins):
+        raise ShotError("cloth.pins", "a vertex is pinned more than once")
+
+    bodies = [_load_body(base_dir, shot, i) for i in range(len(shot.bodies))]
+    all_flat = all(p.rest.kind == "uv" for p in shot.cloth)
+    # Pieces with a flat (uv) rest shape have no 3D rest positions: NaN rows tell the solver
+    # that their rest bending angles are zero.
+    rest_positions = np.concatenate(rest) if not all_flat else np.zeros((0, 3))
+    return Scene(
+        shot=shot,
+        shot_hash=shot_hash(shot, base_dir),
+        pieces=pieces,
+        positions=np.ascontiguousarray(np.concatenate(positions)),
+        velocities=np.ascontiguousarray(np.concatenate(velocities)),
+        faces=np.ascontiguousarray(np.concatenate(faces).astype(np.int32)),
+        face_uv=np.ascontiguousarray(np.concatenate(face_uv)),
+        rest_positions=np.ascontiguousarray(rest_positions),
+        face_material={k: np.concatenate(v) for k, v in materials.items()},
+        fixed_pins=np.asarray(fixed_pins, dtype=np.int32),
+        body_pin_vertices=np.asarray(body_pin_vertices, dtype=np.int32),
+        body_pin_bodies=np.asarray(body_pin_bodies, dtype=np.int32),
+        bodies=bodies,
+    )
+
+
+def _rest_array(base_dir: Path, value: Any, field_path: str) -> np.ndarray:
+    if isinstance(value, ArrayAsset):
+        return load_array(base_dir, value, field_path)
+    return np.asarray(value, dtype=np.float64)
+
+
+def _load_body(base_dir: Path, shot: Shot, i: int) -> BodyArrays:
+    body = shot.bodies[i]
+    where = f"bodies[{i}]"
+    vertices, faces = load_mesh(base_dir, body.mesh, where + ".mesh")
+    count = shot.frame_count
+    if body.animation is None:
+        frames = np.broadcast_to(vertices, (count, *vertices.shape))
+    else:
+        frames = load_array(base_dir, body.animation, where + ".animation")
+        if frames.ndim != 3 or frames.shape[2] != 3:
+            raise ShotError(where + ".animation", f"shape {frames.shape} is not (frames, vertices, 3)")
+        if frames.shape[1] != len(vertices):
+            raise ShotError(
+                where + ".animation",
+                f"has {frames.shape[1]} vertices per frame but the body mesh has {len(vertices)}",
+            )
+        if frames.shape[0] != count:
+            raise ShotError(
+                where + ".animation",
+                f"has {frames.shape[0]} frames but frame_range {list(shot.frame_range)} has {count}",
+            )
+        check_finite(frames, where + ".animation")
+    return BodyArrays(body.name, faces.astype(np.int32), frames)
+
+
+def build_setup(scene: Scene, threads: int = 1) -> Any:
+    """The C++ SimulationSetup for a scene."""
+    from weft import _solver
+
+    shot = scene.shot
+    setup = _solver.SimulationSetup()
+    setup.positions = scene.positions
+    setup.velocities = scene.velocities
+    setup.faces = scene.faces
+    setup.face_uv = scene.face_uv
+    setup.rest_positions = scene.rest_positions
+    setup.face_density = scene.face_material["density"]
+    setup.face_stretch_warp = scene.face_material["stretch_warp"]
+    setup.face_stretch_weft = scene.face_material["stretch_weft"]
+    setup.face_shear = scene.face_material["shear"]
+    setup.face_bend = scene.face_material["bend"]
+    setup.face_damping = scene.face_material["damping"]
+    env = _solver.Environment()
+    env.gravity = np.asarray(shot.environment.gravity, dtype=np.float64)
+    env.air_drag = shot.environment.air_drag
+    if shot.environment.wind is not None:
+        env.wind_velocity = np.asarray(shot.environment.wind.velocity, dtype=np.float64)
+        env.gust_amplitude = shot.environment.wind.gust_amplitude
+        env.gust_frequency = shot.environment.wind.gust_frequency
+    setup.environment = env
+    setup.fixed_pin_vertices = scene.fixed_pins.tolist()
+    setup.body_pin_vertices = scene.body_pin_vertices.tolist()
+    setup.body_pin_bodies = scene.body_pin_bodies.tolist()
+    setup.body_faces = [b.faces for b in scene.bodies]
+    setup.body_positions = [np.ascontiguousarray(b.frames[0]) for b in scene.bodies]
+    solver = _solver.SolverSettings()
+    solver.cg_tolerance = shot.solver.cg_tolerance
+    solver.cg_max_iterations = shot.solver.cg_max_iterations
+    solver.threads = threads
+    setup.solver = solver
+    return setup
