@@ -1,0 +1,111 @@
+"""The HDF5 cache: one row per frame, readable while `weft run` writes it, exact resume."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from weft.cache import describe_cache, open_cache_reader
+from weft.scene_builders import sheet_shot
+
+
+def write_shot(tmp_path: Path, frames: int, n: int = 12, substeps: int = 2) -> Path:
+    doc = sheet_shot("cache_test", n, n, 0.5, 0.5, pins=[0, n - 1], frames=frames, substeps=substeps,
+                     wind={"velocity": [0.0, 0.0, 2.0]}, air_drag=0.3)
+    path = tmp_path / "shot.json"
+    path.write_text(json.dumps(doc))
+    return path
+
+
+def weft(*args: str, **kwargs) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "weft.cli", *args], capture_output=True, text=True,
+                          timeout=300, **kwargs)
+
+
+def test_rows_per_frame_and_info(tmp_path) -> None:
+    shot = write_shot(tmp_path, frames=10)
+    cache = tmp_path / "out.h5"
+    result = weft("run", str(shot), "-o", str(cache), "--quiet")
+    assert result.returncode == 0, result.stderr
+    with open_cache_reader(cache) as f:
+        assert f["frames/positions"].shape == (10, 144, 3)
+        assert f["frames/velocities"].shape == (10, 144, 3)
+        assert f["frames/positions"].chunks == (1, 144, 3)
+        assert f["frames/positions"].dtype == np.float32
+        assert list(f["frames/frame"][()]) == list(range(1, 11))
+        telemetry = f["telemetry"][()]
+        assert len(telemetry) == 10
+        assert telemetry["substeps"][0] == 0 and np.all(telemetry["substeps"][1:] == 2)
+        assert np.all(telemetry["cg_iterations"][1:] > 0)
+        assert np.all(telemetry["total_seconds"][1:] >= telemetry["solve_seconds"][1:])
+        assert f.attrs["status"] == "complete"
+        assert json.loads(f.attrs["shot_json"])["name"] == "cache_test"
+        assert f["state/frame_index"][0] == 9
+        assert np.array_equal(f["state/positions"][()].astype(np.float32), f["frames/positions"][9])
+    info = weft("info", str(cache), "--json")
+    assert info.returncode == 0, info.stderr
+    summary = json.loads(info.stdout)
+    assert summary["frames_written"] == 10 and summary["status"] == "complete"
+    assert summary["mean_seconds_per_frame"]["solve"] > 0
+
+
+def test_reader_sees_frames_while_run_is_writing(tmp_path) -> None:
+    shot = write_shot(tmp_path, frames=400, n=24, substeps=4)
+    cache = tmp_path / "live.h5"
+    proc = subprocess.Popen([sys.executable, "-m", "weft.cli", "run", str(shot), "-o", str(cache), "--quiet"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        seen: list[int] = []
+        deadline = time.monotonic() + 120
+        while time.monotonic() < deadline and len(set(seen)) < 3:
+            if cache.exists():
+                try:
+                    with open_cache_reader(cache) as f:
+                        rows = f["frames/positions"].shape[0]
+                        if rows:
+                            assert f["telemetry"].shape[0] == rows
+                            assert f["frames/frame"].shape[0] == rows
+                            assert np.isfinite(f["frames/positions"][rows - 1]).all()
+                            seen.append(rows)
+                except OSError:
+                    pass  # the file is being created
+            time.sleep(0.05)
+        assert proc.poll() is None, "the run finished before the reader saw it in progress"
+        assert len(set(seen)) >= 3 and seen == sorted(seen)
+        assert max(seen) < 400
+    finally:
+        proc.kill()
+        proc.wait()
+
+
+def test_resume_is_bitwise_identical(tmp_path) -> None:
+    shot = write_shot(tmp_path, frames=12)
+    whole, split = tmp_path / "whole.h5", tmp_path / "split.h5"
+    assert weft("run", str(shot), "-o", str(whole), "--quiet").returncode == 0
+    first = weft("run", str(shot), "-o", str(split), "--quiet", "--frames", "5")
+    assert first.returncode == 0, first.stderr
+    assert describe_cache(split)["status"] == "partial"
+    refused = weft("run", str(shot), "-o", str(split), "--quiet")
+    assert refused.returncode == 2 and "--resume" in refused.stderr
+    second = weft("run", str(shot), "-o", str(split), "--quiet", "--resume")
+    assert second.returncode == 0, second.stderr
+    with open_cache_reader(whole) as a, open_cache_reader(split) as b:
+        assert a["frames/positions"].shape == b["frames/positions"].shape == (12, 144, 3)
+        assert np.array_equal(a["frames/positions"][()], b["frames/positions"][()])
+        assert np.array_equal(a["state/positions"][()], b["state/positions"][()])
+        assert np.array_equal(a["state/velocities"][()], b["state/velocities"][()])
+
+
+def test_resume_refuses_a_different_shot(tmp_path) -> None:
+    shot = write_shot(tmp_path, frames=6)
+    cache = tmp_path / "c.h5"
+    assert weft("run", str(shot), "-o", str(cache), "--quiet", "--frames", "3").returncode == 0
+    (tmp_path / "other").mkdir()
+    other = write_shot(tmp_path / "other", frames=6, n=10)
+    result = weft("run", str(other), "-o", str(cache), "--quiet", "--resume")
+    assert result.returncode == 2 and "different shot" in result.stderr
