@@ -229,3 +229,9 @@ def test_cli_reports_bad_shot_without_traceback(tmp_path, command) -> None:
     assert "cloth[0].mesh.faces[1]" in result.stderr and "out of range" in result.stderr
     assert "Traceback" not in result.stderr
     assert not (tmp_path / "out.h5").exists()
+
+
+def test_unavailable_feature_is_refused_not_ignored(tmp_path) -> None:
+    doc = base_doc()
+    doc["features"] = {"gia": True}
+    expect(doc, tmp_path, "features.gia", "not available")

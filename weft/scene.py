@@ -283,9 +283,16 @@ def _asset_paths(shot: Shot) -> set[str]:
     return paths
 
 
+def check_features(shot: Shot) -> None:
+    """Refuse physics a shot asks for that this build does not provide (never ignore it)."""
+    if shot.features.gia:
+        raise ShotError("features.gia", "global intersection analysis is not available in this version of weft")
+
+
 def resolve_scene(shot: Shot, base_dir: str | Path) -> Scene:
     """Load every asset of a shot, check it, and concatenate the cloth pieces."""
     base_dir = Path(base_dir)
+    check_features(shot)
     positions, velocities, faces, face_uv, rest = [], [], [], [], []
     materials: dict[str, list[np.ndarray]] = {
         k: [] for k in ("density", "stretch_warp", "stretch_weft", "shear", "bend", "damping")
