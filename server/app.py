@@ -28,7 +28,7 @@ from prometheus_client import CONTENT_TYPE_LATEST, CollectorRegistry, Counter, H
 from prometheus_client.core import GaugeMetricFamily
 from starlette.background import BackgroundTask
 
-from api_schemas import FrameTelemetry
+from api_schemas import FrameTelemetry, Shot
 from api_schemas.service import (
     ErrorResponse,
     FramePositions,
@@ -513,6 +513,18 @@ def create_app(settings: ServiceSettings | None = None) -> FastAPI:
         )
         return Response(generate_latest(registry) + extra, media_type=CONTENT_TYPE_LATEST)
 
+    generate_openapi = app.openapi
+
+    def openapi_with_shot() -> dict[str, Any]:
+        """The generated spec plus the Shot schema that POST /v1/jobs takes as its JSON body."""
+        if app.openapi_schema is None:
+            spec = generate_openapi()
+            shot_schema = Shot.model_json_schema(ref_template="#/components/schemas/{model}")
+            spec["components"]["schemas"].update(shot_schema.pop("$defs", {}))
+            spec["components"]["schemas"]["Shot"] = shot_schema
+        return app.openapi_schema  # type: ignore[return-value]
+
+    app.openapi = openapi_with_shot  # type: ignore[method-assign]
     return app
 
 
