@@ -88,7 +88,9 @@ class WorkerList(ApiModel):
 class FramePositions(ApiModel):
     job_id: str
     frame: int
-    positions: list[tuple[float, float, float]]
+    positions: list[tuple[float | None, float | None, float | None]] = Field(
+        description="Per-vertex positions (float32 precision); null where a coordinate is not finite."
+    )
 
 
 class ErrorDetail(ApiModel):

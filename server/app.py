@@ -446,7 +446,10 @@ def create_app(settings: ServiceSettings | None = None) -> FastAPI:
             buffer = io.BytesIO()
             np.save(buffer, positions, allow_pickle=False)
             return Response(buffer.getvalue(), media_type="application/x-npy")
-        return JSONResponse(FramePositions(job_id=job_id, frame=frame, positions=positions.tolist()).model_dump())
+        # JSON has no inf/NaN: non-finite coordinates (a diverging run's last frames) become null.
+        values = np.where(np.isfinite(positions), positions, np.nan).tolist()
+        rows = [tuple(None if v != v else v for v in row) for row in values]
+        return JSONResponse(FramePositions(job_id=job_id, frame=frame, positions=rows).model_dump())
 
     @app.post("/v1/jobs/{job_id}/cancel", response_model=Job, responses=ERRORS, summary="Cancel a job")
     async def cancel_job(request: Request, job_id: JobId, r: Store, owner: Owner) -> Job:
