@@ -150,15 +150,7 @@ def create_app(settings: ServiceSettings | None = None) -> FastAPI:
     async def redis_down(_: Request, exc: redis.ConnectionError) -> JSONResponse:
         return JSONResponse({"detail": f"job store unavailable: {exc}", "errors": []}, status_code=503)
 
-    @app.middleware("http")
-    async def count_requests(request: Request, call_next: Any) -> Response:
-        start = time.perf_counter()
-        response = await call_next(request)
-        route = request.scope.get("route")
-        path = getattr(route, "path", "unmatched")
-        requests_total.labels(request.method, path, str(response.status_code)).inc()
-        latency.labels(path).observe(time.perf_counter() - start)
-        return response
+    app.add_middleware(MetricsMiddleware, requests_total=requests_total, latency=latency)
 
     def job_url(request: Request, job_id: str) -> str:
         return str(request.url_for("get_job", job_id=job_id))
@@ -529,6 +521,35 @@ def create_app(settings: ServiceSettings | None = None) -> FastAPI:
 
     app.openapi = openapi_with_shot  # type: ignore[method-assign]
     return app
+
+
+class MetricsMiddleware:
+    """Counts requests by route template and status and times them. Plain ASGI: no task per
+    request, and streaming responses (SSE, cache downloads) pass straight through."""
+
+    def __init__(self, app: Any, requests_total: Counter, latency: Histogram) -> None:
+        self.app = app
+        self.requests_total = requests_total
+        self.latency = latency
+
+    async def __call__(self, scope: dict[str, Any], receive: Any, send: Any) -> None:
+        if scope["type"] != "http":
+            await self.app(scope, receive, send)
+            return
+        start = time.perf_counter()
+        status = [500]
+
+        async def send_status(message: dict[str, Any]) -> None:
+            if message["type"] == "http.response.start":
+                status[0] = message["status"]
+            await send(message)
+
+        try:
+            await self.app(scope, receive, send_status)
+        finally:
+            path = getattr(scope.get("route"), "path", "unmatched")
+            self.requests_total.labels(scope["method"], path, str(status[0])).inc()
+            self.latency.labels(path).observe(time.perf_counter() - start)
 
 
 class _Static:
