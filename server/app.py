@@ -3,7 +3,6 @@ storage directory (uploaded assets and HDF5 caches). Run with ``python -m server
 
 from __future__ import annotations
 
-import asyncio
 import hashlib
 import hmac
 import ipaddress
@@ -51,6 +50,7 @@ from workers.settings import ServiceSettings
 JOB_ID = r"^[0-9a-f]{32}$"
 IDEMPOTENCY = re.compile(r"^[A-Za-z0-9_.:-]{1,128}$")
 IDEMPOTENCY_TTL = 24 * 3600
+STALE_WORKER_SECONDS = 3600.0
 ERRORS: dict[int | str, dict[str, Any]] = {
     code: {"model": ErrorResponse} for code in (400, 401, 403, 404, 409, 413, 415, 422, 503)
 }
@@ -460,8 +460,11 @@ def create_app(settings: ServiceSettings | None = None) -> FastAPI:
     async def list_workers(r: Store, owner: Owner) -> WorkerList:
         now = jobs.now()
         out = []
-        for record in (await r.hgetall(jobs.WORKERS)).values():
+        for name, record in (await r.hgetall(jobs.WORKERS)).items():
             w = json.loads(record)
+            if now - float(w["heartbeat"]) > STALE_WORKER_SECONDS:  # long dead: forget it
+                await r.hdel(jobs.WORKERS, name)
+                continue
             job_id = w.get("job")
             if job_id and await r.hget(jobs.job_key(job_id), "owner") != owner:
                 job_id = None
@@ -496,7 +499,7 @@ def create_app(settings: ServiceSettings | None = None) -> FastAPI:
         pipe.hgetall(jobs.STATS)
         *counts, workers, stats = await pipe.execute()
         jobs_gauge = GaugeMetricFamily("weft_jobs", "Jobs by state", labels=["state"])
-        for state, count in zip(jobs.STATES, counts):
+        for state, count in zip(jobs.STATES, counts, strict=True):
             jobs_gauge.add_metric([state], count)
         now = jobs.now()
         alive = sum(1 for w in workers.values() if now - json.loads(w)["heartbeat"] < settings.claim_after_seconds)

@@ -14,6 +14,7 @@ import socket
 import subprocess
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import httpx
@@ -31,6 +32,22 @@ def redis_server_binary() -> str:
     if not found:
         raise RuntimeError("redis-server not found: install Debian's redis-server (make system-deps)")
     return found
+
+
+def _wait_ready(
+    ready: Callable[[], bool], proc: subprocess.Popen[bytes], errors: type[Exception], seconds: float, failure: str
+) -> None:
+    """Poll ``ready`` until it is true; RuntimeError(failure) if the process exits or time runs out."""
+    deadline = time.monotonic() + seconds
+    while True:
+        try:
+            if ready():
+                return
+        except errors:
+            pass
+        if proc.poll() is not None or time.monotonic() > deadline:
+            raise RuntimeError(failure)
+        time.sleep(0.05)
 
 
 class Stack:
@@ -96,18 +113,11 @@ class Stack:
             stdout=self._log("redis"), stderr=subprocess.STDOUT,
         )
         client = redis.Redis(port=self.redis_port, socket_connect_timeout=0.5)
-        deadline = time.monotonic() + 20
-        while True:
-            try:
-                if client.ping():
-                    # Wait until the append-only file is loaded.
-                    if client.info("persistence").get("loading", 0) == 0:
-                        return
-            except redis.RedisError:
-                pass
-            if self.redis_proc.poll() is not None or time.monotonic() > deadline:
-                raise RuntimeError(f"redis-server did not start (see {self.log_dir / 'redis.log'})")
-            time.sleep(0.05)
+
+        def ready() -> bool:  # answering, and done loading the append-only file
+            return bool(client.ping()) and client.info("persistence").get("loading", 0) == 0
+
+        _wait_ready(ready, self.redis_proc, redis.RedisError, 20, f"redis-server did not start (see {self.log_dir / 'redis.log'})")
 
     def kill_redis(self) -> None:
         assert self.redis_proc is not None
@@ -119,16 +129,8 @@ class Stack:
         if self.api_keys is None:
             cmd.append("--local")
         self.api_proc = subprocess.Popen(cmd, env=self.env(), stdout=self._log("api"), stderr=subprocess.STDOUT)
-        deadline = time.monotonic() + 30
-        while True:
-            try:
-                if httpx.get(self.url + "/readyz", timeout=1).status_code == 200:
-                    return
-            except httpx.HTTPError:
-                pass
-            if self.api_proc.poll() is not None or time.monotonic() > deadline:
-                raise RuntimeError(f"the API did not start (see {self.log_dir / 'api.log'})")
-            time.sleep(0.1)
+        _wait_ready(lambda: httpx.get(self.url + "/readyz", timeout=1).status_code == 200, self.api_proc,
+                    httpx.HTTPError, 30, f"the API did not start (see {self.log_dir / 'api.log'})")
 
     def start_worker(self) -> subprocess.Popen[bytes]:
         self._worker_serial += 1

@@ -12,9 +12,10 @@ import json
 import os
 import signal
 import time
+from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Annotated, Any, Iterator, Optional
+from typing import Annotated, Any
 
 import httpx
 import typer
@@ -25,7 +26,7 @@ from weft.cli import _fail, app, console, out
 
 DEFAULT_PORT = 8421
 ServerOption = Annotated[
-    Optional[str], typer.Option("--server", envvar="WEFT_SERVER", help="API URL (default: the local stack)")
+    str | None, typer.Option("--server", envvar="WEFT_SERVER", help="API URL (default: the local stack)")
 ]
 
 
@@ -172,7 +173,7 @@ def submit_shot(client: httpx.Client, shot_path: Path, idempotency_key: str | No
 def submit(
     shot: Annotated[Path, typer.Argument(help="Shot file (.json/.yaml); its assets are uploaded with it")],
     wait: Annotated[bool, typer.Option("--wait", help="Follow the job to the end with a progress bar")] = False,
-    idempotency_key: Annotated[Optional[str], typer.Option("--idempotency-key", help="Makes a resubmit safe")] = None,
+    idempotency_key: Annotated[str | None, typer.Option("--idempotency-key", help="Makes a resubmit safe")] = None,
     server: ServerOption = None,
 ) -> None:
     """Submit a shot to the simulation service."""
@@ -207,7 +208,7 @@ def status(
 
 @app.command()
 def jobs(
-    state: Annotated[Optional[str], typer.Option("--state", help="queued, running, succeeded, failed, cancelled")] = None,
+    state: Annotated[str | None, typer.Option("--state", help="queued, running, succeeded, failed, cancelled")] = None,
     limit: Annotated[int, typer.Option("--limit", min=1, max=500)] = 20,
     server: ServerOption = None,
 ) -> None:
@@ -272,8 +273,8 @@ def _start_stack(storage: Path | None, workers: int, port: int | None):  # type:
 @app.command()
 def up(
     workers: Annotated[int, typer.Option("--workers", min=0, max=64, help="Worker processes")] = 1,
-    storage: Annotated[Optional[Path], typer.Option("--storage", help="Caches, uploads and Redis data (default: $WEFT_HOME/service)")] = None,
-    port: Annotated[Optional[int], typer.Option("--port", help=f"API port (default {DEFAULT_PORT}, or a free one)")] = None,
+    storage: Annotated[Path | None, typer.Option("--storage", help="Caches, uploads and Redis data (default: $WEFT_HOME/service)")] = None,
+    port: Annotated[int | None, typer.Option("--port", help=f"API port (default {DEFAULT_PORT}, or a free one)")] = None,
 ) -> None:
     """Start the local service (Redis, the API in local mode on loopback, N workers) until Ctrl-C."""
     try:

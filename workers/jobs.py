@@ -21,9 +21,7 @@ Keys (all prefixed ``weft:``):
 
 from __future__ import annotations
 
-import json
 import time
-from typing import Any
 
 PREFIX = "weft"
 QUEUE = f"{PREFIX}:queue"

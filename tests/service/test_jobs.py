@@ -104,7 +104,7 @@ def test_idempotency_listing_and_workers(alice: httpx.Client, bob: httpx.Client)
     other = bob.post("/v1/jobs", json=shot, headers={"Idempotency-Key": "render-42"})
     assert other.status_code == 201 and other.json()["id"] != first.json()["id"]
     for c, r in ((alice, first), (bob, other)):
-        wait_for(lambda: job_state(c, r.json()["id"])["state"] == "succeeded", what="jobs to finish")
+        wait_for(lambda c=c, r=r: job_state(c, r.json()["id"])["state"] == "succeeded", what="jobs to finish")
 
     ids = {j["id"] for j in bob.get("/v1/jobs").json()["jobs"]}
     assert other.json()["id"] in ids and first.json()["id"] not in ids, "each key sees only its own jobs"
