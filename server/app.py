@@ -42,7 +42,7 @@ from api_schemas.service import (
     WorkerList,
 )
 from server import cachefiles
-from server.uploads import UploadError, read_limited, receive_multipart
+from server.uploads import UploadError, normalize_asset_path, read_limited, receive_multipart
 from weft.scene import ShotError, ShotValidationError, _asset_paths, parse_shot, resolve_scene
 from workers import jobs
 from workers.settings import ServiceSettings
@@ -287,7 +287,7 @@ def create_app(settings: ServiceSettings | None = None) -> FastAPI:
             shot = parse_shot(document)
             if shot.frame_count > settings.max_frames:
                 raise ShotError("frame_range", f"{shot.frame_count} frames exceeds the limit of {settings.max_frames}")
-            referenced = _asset_paths(shot)
+            referenced = {normalize_asset_path(path) for path in _asset_paths(shot)}
             extra = sorted(uploaded - referenced)
             if extra:
                 raise ApiError(400, f"uploaded file {extra[0]!r} is not referenced by the shot",
@@ -316,14 +316,21 @@ def create_app(settings: ServiceSettings | None = None) -> FastAPI:
         offset: Annotated[int, Query(ge=0)] = 0,
         limit: Annotated[int, Query(ge=1, le=500)] = 50,
     ) -> JobList:
-        ids = await r.zrevrange(jobs.owner_key(owner), 0, -1)
+        index = jobs.owner_key(owner)
+        if state is None:  # one page straight from the sorted index
+            total = await r.zcard(index)
+            ids = await r.zrevrange(index, offset, offset + limit - 1)
+        else:
+            ids = await r.zrevrange(index, 0, -1)
         pipe = r.pipeline(transaction=False)
         for job_id in ids:
             pipe.hgetall(jobs.job_key(job_id))
         records = [h for h in await pipe.execute() if h and (state is None or h.get("state") == state)]
-        page = records[offset : offset + limit]
-        next_offset = offset + limit if offset + limit < len(records) else None
-        return JobList(jobs=[to_job(request, h) for h in page], total=len(records), offset=offset, limit=limit,
+        if state is not None:
+            total = len(records)
+            records = records[offset : offset + limit]
+        next_offset = offset + limit if offset + limit < total else None
+        return JobList(jobs=[to_job(request, h) for h in records], total=total, offset=offset, limit=limit,
                        next_offset=next_offset)
 
     @app.get("/v1/jobs/{job_id}", response_model=Job, responses=ERRORS, summary="A job's state and progress")

@@ -28,10 +28,15 @@ class UploadError(Exception):
         self.problem = problem
 
 
+def normalize_asset_path(name: str) -> str:
+    """'./meshes//a.obj' -> 'meshes/a.obj' (the form uploads are stored and compared in)."""
+    return "/".join(p for p in name.replace("\\", "/").split("/") if p not in ("", "."))
+
+
 def check_asset_name(name: str) -> str:
     """A relative path of safe components; anything else (``..``, absolute, odd characters) is refused."""
-    parts = name.replace("\\", "/").split("/")
-    if not name or len(name) > 256 or len(parts) > 8 or not all(SAFE_PART.match(p) for p in parts):
+    parts = normalize_asset_path(name).split("/")
+    if name.startswith(("/", "\\")) or len(name) > 256 or len(parts) > 8 or not all(SAFE_PART.match(p) for p in parts):
         raise UploadError(
             400, "assets", f"bad asset file name {name[:80]!r}: use a relative path of letters, digits, '_', '-' and '.'"
         )

@@ -153,7 +153,7 @@ def submit_shot(client: httpx.Client, shot_path: Path, idempotency_key: str | No
     except ShotError as exc:
         _fail(f"{shot_path}: {exc}")
     document = yaml.safe_load(shot_path.read_text()) if shot_path.suffix.lower() in {".yaml", ".yml"} else json.loads(shot_path.read_text())
-    files: list[tuple[str, Any]] = [("shot", ("shot.json", json.dumps(document), "application/json"))]
+    files: list[tuple[str, Any]] = [("shot", ("shot.json", json.dumps(document, default=str), "application/json"))]
     handles = []
     try:
         for relative in sorted(_asset_paths(shot)):

@@ -69,6 +69,7 @@ CASES: list[Case] = [
     ("asset not uploaded", lambda c, s: c.post("/v1/jobs", **multipart(shot_with("cloth.0.mesh", {"path": "sheet.obj"}))), 422, "cloth[0].mesh.path"),
     ("unreferenced upload", lambda c, s: c.post("/v1/jobs", **multipart(small_shot(), ("extra.obj", b"v 0 0 0\n"))), 400, "not referenced"),
     ("path traversal file name", lambda c, s: c.post("/v1/jobs", **multipart(small_shot(), ("../../etc/passwd", b"x"))), 400, "bad asset file name"),
+    ("absolute file name", lambda c, s: c.post("/v1/jobs", **multipart(small_shot(), ("/etc/passwd", b"x"))), 400, "bad asset file name"),
     ("absolute asset path in shot", lambda c, s: c.post("/v1/jobs", json=shot_with("cloth.0.mesh", {"path": "/etc/passwd.obj"})), 422, "relative"),
     ("corrupt mesh file", lambda c, s: c.post("/v1/jobs", **multipart(shot_with("cloth.0.mesh", {"path": "m.obj"}), ("m.obj", b"\x00\xffgarbage"))), 422, "cloth[0].mesh"),
     ("multipart without shot", lambda c, s: c.post("/v1/jobs", files=[("assets", ("a.obj", b"v 0 0 0"))]), 400, "no 'shot' part"),

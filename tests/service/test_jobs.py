@@ -80,7 +80,7 @@ def test_multipart_upload_with_mesh_file(alice: httpx.Client) -> None:
     vertices, faces = grid_sheet(6, 6, 0.4, 0.4)
     obj = trimesh.exchange.obj.export_obj(trimesh.Trimesh(vertices, faces, process=False))
     shot = small_shot("upload", frames=6)
-    shot["cloth"][0]["mesh"] = {"path": "meshes/sheet.obj"}
+    shot["cloth"][0]["mesh"] = {"path": "./meshes/sheet.obj"}  # matched to the upload's normalized name
     shot["cloth"][0]["pins"] = [{"vertices": [0, 5]}]
     r = alice.post(
         "/v1/jobs",
