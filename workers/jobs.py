@@ -80,15 +80,27 @@ redis.call('HINCRBY', KEYS[1], 'attempts', 1)
 return 'running'
 """
 
-# ARGV: new final state, now, payload JSON, final event id, job id, then field/value pairs.
-# Returns 1 if this call finished the job, 0 if it was already final.
+# KEYS[1] job hash, KEYS[2] queue stream. ARGV: worker, now, stream entry id, group.
+# Keeps the worker's claim on its entry fresh, only while the job is still its own (a worker
+# that was presumed dead and replaced must not take the entry back).
+HEARTBEAT_LUA = """
+if redis.call('HGET', KEYS[1], 'worker') ~= ARGV[1] then return 0 end
+redis.call('HSET', KEYS[1], 'heartbeat', ARGV[2])
+redis.call('XCLAIM', KEYS[2], ARGV[4], ARGV[1], 0, ARGV[3], 'JUSTID')
+return 1
+"""
+
+# ARGV: new final state, now, payload JSON, final event id, job id, worker, then field/value
+# pairs. Returns 1 if this call finished the job, 0 if it was already final, -1 if the job has
+# been taken over by another worker.
 FINISH_LUA = """
 local state = redis.call('HGET', KEYS[1], 'state')
 if not state then return 0 end
 if state == 'succeeded' or state == 'failed' or state == 'cancelled' then return 0 end
+if redis.call('HGET', KEYS[1], 'worker') ~= ARGV[6] then return -1 end
 redis.call('SMOVE', 'weft:state:' .. state, 'weft:state:' .. ARGV[1], ARGV[5])
 redis.call('HSET', KEYS[1], 'state', ARGV[1], 'finished', ARGV[2])
-for i = 6, #ARGV, 2 do redis.call('HSET', KEYS[1], ARGV[i], ARGV[i + 1]) end
+for i = 7, #ARGV, 2 do redis.call('HSET', KEYS[1], ARGV[i], ARGV[i + 1]) end
 redis.pcall('XADD', KEYS[2], ARGV[4], 'type', 'end', 'data', ARGV[3])
 redis.call('HINCRBY', 'weft:stats', 'jobs_' .. ARGV[1], 1)
 return 1

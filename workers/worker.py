@@ -33,6 +33,10 @@ class Requeue(Exception):
     """Raised between frames when the worker is shutting down: the job goes back to the queue."""
 
 
+class Superseded(Exception):
+    """Raised between frames when another worker took the job over (this one was presumed dead)."""
+
+
 class Worker:
     def __init__(self, settings: ServiceSettings, name: str | None = None) -> None:
         self.settings = settings
@@ -41,6 +45,7 @@ class Worker:
         self.start_script = self.redis.register_script(jobs.START_LUA)
         self.finish_script = self.redis.register_script(jobs.FINISH_LUA)
         self.frame_script = self.redis.register_script(jobs.FRAME_LUA)
+        self.heartbeat_script = self.redis.register_script(jobs.HEARTBEAT_LUA)
         self.stopping = threading.Event()
         self._lock = threading.Lock()
         self._current: tuple[str, str] | None = None  # (stream entry id, job id)
@@ -104,11 +109,12 @@ class Worker:
         }
         pipe = self.redis.pipeline(transaction=False)
         pipe.hset(jobs.WORKERS, self.name, json.dumps(record))
+        pipe.execute()
         if current is not None:
             # Re-claiming our own entry resets its idle time: it is not taken over while we live.
-            pipe.xclaim(jobs.QUEUE, jobs.GROUP, self.name, 0, [current[0]], justid=True)
-            pipe.hset(jobs.job_key(current[1]), "heartbeat", record["heartbeat"])
-        pipe.execute()
+            self.heartbeat_script(
+                keys=[jobs.job_key(current[1]), jobs.QUEUE], args=[self.name, record["heartbeat"], current[0], jobs.GROUP]
+            )
 
     def _deregister(self) -> None:
         try:
@@ -124,15 +130,18 @@ class Worker:
             log.info("job %s is %s; dropping its queue entry", job_id, state)
             self.redis.xack(jobs.QUEUE, jobs.GROUP, entry_id)
             return
-        job = self.redis.hgetall(key)
-        if int(job.get("attempts", 1)) > self.settings.max_attempts:
-            self._finish(entry_id, job_id, "failed", error_reason=f"gave up after {self.settings.max_attempts} attempts (workers died)")
-            return
         with self._lock:
             self._current = (entry_id, job_id)
-        self._beat()
         try:
-            self._run(entry_id, job_id, job)
+            self._beat()
+            job = self.redis.hgetall(key)
+            if int(job.get("attempts", 1)) > self.settings.max_attempts:
+                reason = f"gave up after {self.settings.max_attempts} attempts (workers died)"
+                self._finish(entry_id, job_id, "failed", error_reason=reason)
+            elif job.get("cancel_requested") == "1":  # cancelled while its previous worker was dying
+                self._finish(entry_id, job_id, "cancelled")
+            else:
+                self._run(entry_id, job_id, job)
         except Requeue:
             # Shutting down: hand the job back to the queue at once (no claim timeout).
             pipe = self.redis.pipeline(transaction=True)
@@ -141,6 +150,8 @@ class Worker:
             pipe.xadd(jobs.QUEUE, {"job": job_id})
             pipe.xack(jobs.QUEUE, jobs.GROUP, entry_id)
             pipe.execute()
+        except Superseded:
+            log.warning("job %s was taken over by another worker; leaving it", job_id)
         finally:
             with self._lock:
                 self._current = None
@@ -174,7 +185,10 @@ class Worker:
         def should_stop() -> bool:
             if self.stopping.is_set():
                 raise Requeue
-            return self.redis.hget(jobs.job_key(job_id), "cancel_requested") == "1"
+            cancel, worker = self.redis.hmget(jobs.job_key(job_id), ["cancel_requested", "worker"])
+            if worker != self.name:
+                raise Superseded
+            return cancel == "1"
 
         runner = ShotRunner(scene, cache, threads=self.settings.solver_threads, resume=True)
         try:
@@ -182,7 +196,7 @@ class Worker:
         except SolverFailure as exc:
             self._finish(entry_id, job_id, "failed", error_frame=exc.frame, error_reason=exc.reason)
             return
-        except (Requeue, redis.RedisError):
+        except (Requeue, Superseded, redis.RedisError):
             raise
         except Exception as exc:  # a bad cache or an unexpected error fails this job, not the worker
             log.error("job %s: %s", job_id, traceback.format_exc())
@@ -236,10 +250,12 @@ class Worker:
             "state": state, "frames_done": int(job.get("frames_done", 0)),
             "error_frame": error_frame, "error_reason": error_reason or None,
         })
-        self.finish_script(
+        done = self.finish_script(
             keys=[key, jobs.events_key(job_id)],
-            args=[state, jobs.now(), payload, jobs.final_event_id(frames_total), job_id, *fields],
+            args=[state, jobs.now(), payload, jobs.final_event_id(frames_total), job_id, self.name, *fields],
         )
+        if done == -1:
+            raise Superseded
         self.redis.xack(jobs.QUEUE, jobs.GROUP, entry_id)
         log.info("job %s %s", job_id, state)
 

@@ -52,6 +52,21 @@ def test_sigkill_worker_resumes_from_last_frame(stack: Stack, alice: httpx.Clien
         assert np.array_equal(a["state/positions"][()], b["state/positions"][()]), "exact final solver state"
 
 
+def test_sigterm_hands_the_job_back_at_once(stack: Stack, alice: httpx.Client) -> None:
+    job_id = alice.post("/v1/jobs", json=slow_shot("sigterm", frames=40)).json()["id"]
+    job = wait_for(lambda: (j := job_state(alice, job_id))["frames_done"] >= 3 and j, what="3 frames")
+    leaving = stack.worker_named(job["worker"])
+    leaving.send_signal(signal.SIGTERM)
+    assert leaving.wait(timeout=20) == 0, "a stopped worker exits cleanly after its frame"
+    stack.start_worker()
+    events = follow(alice, job_id)
+    job = job_state(alice, job_id)
+    assert job["state"] == "succeeded" and job["attempts"] == 2 and job["resumed_from"] >= 3
+    assert [d["frame"] for e, _, d in events if e == "frame"] == list(range(1, 41))
+    workers = {w["name"]: w for w in alice.get("/v1/workers").json()["workers"]}
+    assert leaving.name not in workers, "a worker that stops cleanly deregisters"  # type: ignore[attr-defined]
+
+
 def test_solver_blowup_fails_with_frame_and_reason(alice: httpx.Client) -> None:
     # A 50-million-second time step with a huge initial velocity. The
     # positions overflow after a few frames and the solver reports non-finite state.
