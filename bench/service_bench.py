@@ -15,6 +15,7 @@ from __future__ import annotations
 import argparse
 import asyncio
 import json
+import re
 import statistics
 import tempfile
 import time
@@ -43,20 +44,29 @@ async def submit(client: httpx.AsyncClient, shot: dict[str, Any]) -> str:
     return str(r.json()["id"])
 
 
-async def follow(client: httpx.AsyncClient, job_id: str) -> list[float]:
-    """Event latencies (seconds) for every frame event of a job."""
-    latencies = []
-    async with aconnect_sse(client, "GET", f"/v1/jobs/{job_id}/events", timeout=httpx.Timeout(30, read=300)) as source:
-        async for sse in source.aiter_sse():
-            if not sse.data:
-                continue
-            received = time.time()
-            data = json.loads(sse.data)
-            if sse.event == "frame":
-                latencies.append(received - data["published_at"])
-            elif sse.event == "end":
-                break
-    return latencies
+async def follow(client: httpx.AsyncClient, job_id: str, reconnects: list[int] | None = None) -> list[float]:
+    """Event latencies (seconds) for every frame event of a job; reconnects with Last-Event-ID
+    if the connection drops (counted in ``reconnects``)."""
+    latencies: list[float] = []
+    last_id = ""
+    while True:
+        headers = {"Last-Event-ID": last_id} if last_id else {}
+        try:
+            async with aconnect_sse(client, "GET", f"/v1/jobs/{job_id}/events", headers=headers,
+                                    timeout=httpx.Timeout(30, read=300)) as source:
+                async for sse in source.aiter_sse():
+                    if not sse.data:
+                        continue
+                    received = time.time()
+                    last_id = sse.id or last_id
+                    data = json.loads(sse.data)
+                    if sse.event == "frame":
+                        latencies.append(received - data["published_at"])
+                    elif sse.event == "end":
+                        return latencies
+        except (httpx.ReadError, httpx.RemoteProtocolError):
+            if reconnects is not None:
+                reconnects.append(1)
 
 
 async def overhead(client: httpx.AsyncClient, name: str, shot: dict[str, Any]) -> dict[str, Any]:
@@ -69,7 +79,7 @@ async def overhead(client: httpx.AsyncClient, name: str, shot: dict[str, Any]) -
     wall = job["finished"] - job["started"]
     per_frame = (wall - solver) / frames
     return {
-        "scene": name, "vertices": job["vertices"], "frames": frames, "solver_ms": 1000 * solver / frames,
+        "job_id": job_id, "scene": name, "vertices": job["vertices"], "frames": frames, "solver_ms": 1000 * solver / frames,
         "overhead_ms": 1000 * per_frame, "relative": per_frame / (solver / frames),
     }
 
@@ -90,6 +100,16 @@ async def poll_load(client: httpx.AsyncClient, job_ids: list[str], pollers: int,
     return latencies
 
 
+async def server_seconds(client: httpx.AsyncClient, route: str) -> tuple[float, float]:
+    """(sum, count) of the API's own request-time histogram for a route, from /metrics."""
+    text = (await client.get("/metrics")).text
+    values = {}
+    for kind in ("sum", "count"):
+        match = re.search(rf'^weft_http_request_seconds_{kind}\{{route="{re.escape(route)}"\}} (\S+)$', text, re.M)
+        values[kind] = float(match.group(1)) if match else 0.0
+    return values["sum"], values["count"]
+
+
 async def main_async(args: argparse.Namespace) -> None:
     with tempfile.TemporaryDirectory() as tmp, Stack(Path(tmp), workers=args.workers) as stack:
         limits = httpx.Limits(max_connections=args.pollers + 10, max_keepalive_connections=args.pollers + 10)
@@ -105,6 +125,11 @@ async def main_async(args: argparse.Namespace) -> None:
             for r in rows:
                 print(f"   {r['scene']:<26}{r['vertices']:>9}{r['frames']:>7}{r['solver_ms']:>17.2f}{r['overhead_ms']:>19.2f}{r['relative']:>16.1%}")
 
+            idle_polls = []
+            for _ in range(100):
+                start = time.perf_counter()
+                (await client.get(f"/v1/jobs/{rows[0]['job_id']}")).raise_for_status()
+                idle_polls.append(time.perf_counter() - start)
             idle = await follow(client, await submit(client, sheet_shot("idle", 16, 16, 0.5, 0.5, pins=[0, 15], frames=60, substeps=8)))
 
             # Load: jobs running on every worker while 100 clients poll their status.
@@ -112,20 +137,31 @@ async def main_async(args: argparse.Namespace) -> None:
                          for i in range(args.workers)]
             while (await client.get(f"/v1/jobs/{load_jobs[0]}")).json()["state"] != "running":
                 await asyncio.sleep(0.05)
-            events_task = asyncio.create_task(follow(client, load_jobs[0]))
+            reconnects: list[int] = []
+            events_task = asyncio.create_task(follow(client, load_jobs[0], reconnects))
+            before = await server_seconds(client, "/v1/jobs/{job_id}")
+            started = time.perf_counter()
             polls = await poll_load(client, load_jobs, args.pollers, args.polls)
+            elapsed = time.perf_counter() - started
+            after = await server_seconds(client, "/v1/jobs/{job_id}")
             for job_id in load_jobs:
                 await client.post(f"/v1/jobs/{job_id}/cancel")
             loaded_events = await events_task
 
             print(f"\n2. Status-poll latency, {args.pollers} concurrent pollers x {args.polls} polls, workers running (ms)")
+            p = percentiles(idle_polls)
+            print(f"   one poller, no job running: n {p['n']}  p50 {1000 * p['p50']:.1f}  p99 {1000 * p['p99']:.1f}")
             p = percentiles(polls)
-            print(f"   n {p['n']}  p50 {1000 * p['p50']:.1f}  p90 {1000 * p['p90']:.1f}  p99 {1000 * p['p99']:.1f}  max {1000 * p['max']:.1f}")
+            print(f"   client-observed: n {p['n']}  p50 {1000 * p['p50']:.1f}  p90 {1000 * p['p90']:.1f}  "
+                  f"p99 {1000 * p['p99']:.1f}  max {1000 * p['max']:.1f}  ({len(polls) / elapsed:.0f} req/s)")
+            served = (after[0] - before[0]) / max(after[1] - before[1], 1)
+            print(f"   inside the API (route handler to response, from /metrics): mean {1000 * served:.2f} ms")
             print("\n3. Frame finished -> SSE event received (ms)")
             for label, values in (("idle", idle), (f"under {args.pollers} pollers", loaded_events)):
                 p = percentiles(values)
                 print(f"   {label:<18} n {p['n']:>4}  p50 {1000 * p['p50']:.1f}  p90 {1000 * p['p90']:.1f}  "
                       f"p99 {1000 * p['p99']:.1f}  max {1000 * p['max']:.1f}  mean {1000 * statistics.mean(values):.1f}")
+            print(f"   SSE reconnects under load: {len(reconnects)}")
 
 
 def main() -> None:

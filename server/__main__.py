@@ -19,6 +19,7 @@ def main() -> None:
     parser.add_argument("--host", default="127.0.0.1")
     parser.add_argument("--port", type=int, default=8421)
     parser.add_argument("--local", action="store_true", help="no API keys; loopback only")
+    parser.add_argument("--processes", type=int, default=1, help="uvicorn worker processes (the API is stateless)")
     args = parser.parse_args()
     if args.local:
         try:
@@ -30,9 +31,10 @@ def main() -> None:
         os.environ["WEFT_LOCAL"] = "1"
     elif not (os.environ.get("WEFT_API_KEYS") or os.environ.get("WEFT_API_KEYS_FILE")):
         sys.exit("set WEFT_API_KEYS or WEFT_API_KEYS_FILE (or use --local on a loopback host)")
-    from server.app import create_app
-
-    uvicorn.run(create_app(), host=args.host, port=args.port, log_level=os.environ.get("WEFT_LOG_LEVEL", "warning").lower())
+    uvicorn.run(
+        "server.app:create_app", factory=True, host=args.host, port=args.port, workers=args.processes,
+        log_level=os.environ.get("WEFT_LOG_LEVEL", "warning").lower(),
+    )
 
 
 if __name__ == "__main__":
