@@ -3,6 +3,7 @@ storage directory (uploaded assets and HDF5 caches). Run with ``python -m server
 
 from __future__ import annotations
 
+import asyncio
 import hashlib
 import hmac
 import ipaddress
@@ -377,7 +378,12 @@ def create_app(settings: ServiceSettings | None = None) -> FastAPI:
             last = start
             yield "retry: 1000\n\n"
             while not await request.is_disconnected():
-                found = await r.xread({jobs.events_key(job_id): last}, count=200, block=2000)
+                try:
+                    found = await r.xread({jobs.events_key(job_id): last}, count=200, block=2000)
+                except redis.ConnectionError:  # Redis restarting: keep the client, retry
+                    yield ": job store unavailable, retrying\n\n"
+                    await asyncio.sleep(0.5)
+                    continue
                 if not found:
                     yield ": keep-alive\n\n"
                     continue

@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import json
 import signal
 import subprocess
 import sys
-import json
+import threading
+import time
 from pathlib import Path
 
 import h5py
@@ -120,3 +122,32 @@ def test_redis_restart_loses_no_queued_job(own_stack: Stack) -> None:
             assert follow(c, job_id)[-1][2]["state"] == "succeeded"
         assert job_state(c, cancelled)["state"] == "cancelled"
         assert job_state(c, cancelled)["frames_done"] == 0, "a cancelled queued job never runs"
+
+
+def test_redis_killed_mid_job(own_stack: Stack) -> None:
+    """Redis dies while a worker runs a job: the worker waits for it, takes the job up again
+    from its cache, and the event stream (kept open by the API) still has every frame once."""
+    own_stack.start_worker()
+    with client(own_stack, ALICE) as c:
+        job_id = c.post("/v1/jobs", json=slow_shot("redis-mid", frames=40)).json()["id"]
+        wait_for(lambda: job_state(c, job_id)["frames_done"] >= 3, what="3 frames")
+        events: list[tuple[str, str, dict]] = []  # type: ignore[type-arg]
+        connected = threading.Event()
+
+        def follow_all() -> None:
+            with client(own_stack, ALICE) as own:
+                events.extend(follow(own, job_id, lambda *_: connected.set()))
+
+        follower = threading.Thread(target=follow_all)
+        follower.start()
+        assert connected.wait(30)
+        own_stack.kill_redis()
+        time.sleep(0.5)
+        own_stack.start_redis()
+        follower.join(timeout=120)
+        assert not follower.is_alive()
+        job = job_state(c, job_id)
+        assert job["state"] == "succeeded", job
+        assert job["attempts"] == 2 and job["resumed_from"] >= 3, "the interrupted run was taken up again"
+        assert [d["frame"] for e, _, d in events if e == "frame"] == list(range(1, 41))
+        assert len(c.get(f"/v1/jobs/{job_id}/telemetry").json()["rows"]) == 40
