@@ -344,7 +344,9 @@ def create_app(settings: ServiceSettings | None = None) -> FastAPI:
         job_id: JobId,
         r: Store,
         owner: Owner,
-        since: Annotated[int | None, Query(description="Only frames after this frame number.")] = None,
+        since: Annotated[
+            int | None, Query(ge=-(10**9), le=10**9, description="Only frames after this frame number.")
+        ] = None,
     ) -> TelemetryPage:
         h = await load_job(r, owner, job_id)
         start = "-"

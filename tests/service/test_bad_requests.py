@@ -83,6 +83,7 @@ CASES: list[Case] = [
     ("bad state filter", lambda c, s: c.get("/v1/jobs", params={"state": "exploded"}), 422, "state"),
     ("negative offset", lambda c, s: c.get("/v1/jobs", params={"offset": -1}), 422, "offset"),
     ("non-integer since", lambda c, s: c.get(f"/v1/jobs/{MISSING_JOB}/telemetry", params={"since": "yesterday"}), 422, "since"),
+    ("huge since", lambda c, s: c.get(f"/v1/jobs/{own_job(c)}/telemetry", params={"since": 10**30}), 422, "since"),
     ("non-integer frame", lambda c, s: c.get(f"/v1/jobs/{MISSING_JOB}/frames/first"), 422, "frame"),
     ("bad Last-Event-ID", lambda c, s: c.get(f"/v1/jobs/{own_job(c)}/events", headers={"Last-Event-ID": "../x"}), 400, "Last-Event-ID"),
     ("bad frame format", lambda c, s: c.get(f"/v1/jobs/{MISSING_JOB}/frames/1", params={"format": "exe"}), 422, "format"),
