@@ -77,6 +77,24 @@ def store(request: Request) -> aioredis.Redis:
     return request.app.state.redis  # type: ignore[no-any-return]
 
 
+def check_index_sizes(shot: Shot) -> None:
+    """Vertex indices must fit the solver's int32 (the schema accepts any integer)."""
+    limit = 2**31
+
+    def check(values: Any, field: str) -> None:
+        for k, value in enumerate(values or []):
+            items = value if isinstance(value, tuple | list) else (value,)
+            if any(not -limit <= v < limit for v in items):
+                raise ShotError(f"{field}[{k}]", f"vertex index {max(items, key=abs)} is out of range")
+
+    for i, piece in enumerate(shot.cloth):
+        check(piece.mesh.faces, f"cloth[{i}].mesh.faces")
+        for j, pin in enumerate(piece.pins):
+            check(pin.vertices, f"cloth[{i}].pins[{j}].vertices")
+    for i, body in enumerate(shot.bodies):
+        check(body.mesh.faces, f"bodies[{i}].mesh.faces")
+
+
 # Declares bearer auth in the OpenAPI document (the 'Authorize' button of /docs); the checks
 # are ours, so that each failure gets its own message.
 bearer_scheme = HTTPBearer(auto_error=False, description="An API key of this service.")
@@ -289,12 +307,14 @@ def create_app(settings: ServiceSettings | None = None) -> FastAPI:
         """Parse and fully resolve a shot (assets included); ApiError 4xx naming the field."""
         try:
             document = json.loads(body)
-        except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-            raise ApiError(400, f"shot is not valid JSON: {exc}", [{"field": "shot", "problem": str(exc)}]) from None
+        except (json.JSONDecodeError, UnicodeDecodeError, RecursionError) as exc:
+            problem = "nested too deeply" if isinstance(exc, RecursionError) else str(exc)
+            raise ApiError(400, f"shot is not valid JSON: {problem}", [{"field": "shot", "problem": problem}]) from None
         if not isinstance(document, dict):
             raise ApiError(422, "the shot must be a JSON object", [{"field": "shot", "problem": "not an object"}])
         try:
             shot = parse_shot(document)
+            check_index_sizes(shot)
             if shot.frame_count > settings.max_frames:
                 raise ShotError("frame_range", f"{shot.frame_count} frames exceeds the limit of {settings.max_frames}")
             referenced = {normalize_asset_path(path) for path in _asset_paths(shot)}
