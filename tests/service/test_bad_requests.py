@@ -13,7 +13,8 @@ import numpy as np
 import pytest
 
 from server.stack import Stack
-from tests.service.conftest import BOB, client, small_shot
+
+from .conftest import BOB, client, small_shot
 
 MISSING_JOB = "0" * 32
 

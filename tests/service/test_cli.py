@@ -15,8 +15,9 @@ import trimesh
 import yaml
 
 from server.stack import Stack, free_port
-from tests.service.conftest import ALICE, slow_shot, small_shot, wait_for
 from weft.scene_builders import grid_sheet
+
+from .conftest import ALICE, slow_shot, small_shot, wait_for
 
 WEFT = str(Path(sys.executable).with_name("weft"))
 

@@ -15,8 +15,9 @@ import httpx
 import numpy as np
 
 from server.stack import Stack
-from tests.service.conftest import ALICE, client, follow, job_state, slow_shot, small_shot, wait_for
 from weft.scene_builders import sheet_shot
+
+from .conftest import ALICE, client, follow, job_state, slow_shot, small_shot, wait_for
 
 
 def test_sigkill_worker_resumes_from_last_frame(stack: Stack, alice: httpx.Client, tmp_path: Path) -> None:

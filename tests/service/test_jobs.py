@@ -10,8 +10,9 @@ import httpx
 import numpy as np
 import trimesh
 
-from tests.service.conftest import follow, job_state, slow_shot, small_shot, wait_for
 from weft.scene_builders import grid_sheet
+
+from .conftest import follow, job_state, slow_shot, small_shot, wait_for
 
 
 def test_submit_follow_fetch(alice: httpx.Client, tmp_path) -> None:  # type: ignore[no-untyped-def]
