@@ -437,11 +437,11 @@ def create_app(settings: ServiceSettings | None = None) -> FastAPI:
         if not cache.exists():
             raise ApiError(404, f"job {job_id} has no cached frames yet (state {h['state']})")
         filename = f"{h['name']}-{job_id[:8]}.h5"
-        if h["state"] in jobs.FINAL_STATES:
-            return FileResponse(cache, media_type="application/x-hdf5", filename=filename)
         for stale in settings.job_dir(job_id).glob("snapshot-*.h5"):  # left by an interrupted download
             if time.time() - stale.stat().st_mtime > 600:
                 stale.unlink(missing_ok=True)
+        if h["state"] in jobs.FINAL_STATES:
+            return FileResponse(cache, media_type="application/x-hdf5", filename=filename)
         target = settings.job_dir(job_id) / f"snapshot-{uuid.uuid4().hex}.h5"
         try:
             await anyio.to_thread.run_sync(cachefiles.snapshot, cache, target)
