@@ -7,7 +7,7 @@ PIP := $(VENV)/bin/pip
 STAMP := $(VENV)/.weft-deps
 CPP_BUILD := build/cpp
 
-.PHONY: setup system-deps build demo test test-cpp test-py bench clean
+.PHONY: setup system-deps build demo test test-cpp test-py bench bench-service clean
 
 # Debian packages: compiler, CMake, Eigen 3.4, GoogleTest, Redis. Skipped when all present.
 system-deps:
@@ -27,10 +27,12 @@ setup: $(STAMP)
 build: setup
 	$(PIP) install -q -e ".[test]" --no-build-isolation --no-deps
 
+# The demo runs through the service: a local stack (Redis, API, worker) starts, the demo shot is
+# submitted and followed to the end with a progress bar, its timing printed, the stack stopped.
 demo: build
 	$(PY) scenes/generate.py
 	rm -f out/demo_flag.h5
-	$(VENV)/bin/weft run scenes/generated/demo_flag.yaml -o out/demo_flag.h5 --threads 2
+	$(VENV)/bin/weft demo --workers 1 --shot scenes/generated/demo_flag.yaml -o out/demo_flag.h5
 	$(VENV)/bin/weft info out/demo_flag.h5
 
 test-cpp: setup
@@ -42,6 +44,11 @@ test-py: build
 	$(PY) -m pytest -q
 
 test: test-cpp test-py
+
+# Service benchmark (not a test): API overhead per frame, status-poll latency under load,
+# frame-to-event latency. Local stack on loopback.
+bench-service: build
+	$(PY) bench/service_bench.py
 
 clean:
 	rm -rf build out scenes/generated

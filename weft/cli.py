@@ -151,3 +151,7 @@ def main() -> None:  # pragma: no cover
 
 if __name__ == "__main__":  # pragma: no cover
     sys.exit(app())
+
+
+# The simulation-service commands (up, submit, status, jobs, fetch, cancel, demo).
+from weft import service_cli as _service_cli  # noqa: E402,F401

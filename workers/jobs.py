@@ -1,0 +1,152 @@
+"""Redis layout and atomic job transitions shared by the API server and the workers.
+
+Keys (all prefixed ``weft:``):
+
+- ``weft:queue``: the job stream. One entry per queued run, read by the ``workers`` consumer
+  group with XREADGROUP. A worker acknowledges (XACK) an entry only once its job reached a
+  final state, so the entry of a worker that died stays pending and another worker takes it
+  over with XAUTOCLAIM once it has been idle longer than the claim timeout. Live workers keep
+  their entry fresh by re-claiming it (XCLAIM ... JUSTID) from their heartbeat thread.
+- ``weft:job:{id}``: hash with the job record (see ``JOB_FIELDS``).
+- ``weft:job:{id}:events``: stream of the job's events. Frame events use the explicit entry id
+  ``{index + 1}-0`` (index: 0-based cache row), so publishing a frame twice is refused by Redis
+  itself and every frame appears exactly once, in order. The final event uses
+  ``{frames_total + 1}-0``.
+- ``weft:owner:{owner}:jobs``: sorted set of an API key's job ids, scored by creation time.
+- ``weft:state:{state}``: set of the job ids in each state (for metrics).
+- ``weft:idem:{owner}:{key}``: idempotency key -> job id (SET NX, with a TTL).
+- ``weft:workers``: hash worker name -> JSON heartbeat record.
+- ``weft:stats``: hash of counters (frames simulated, jobs finished).
+"""
+
+from __future__ import annotations
+
+import time
+
+PREFIX = "weft"
+QUEUE = f"{PREFIX}:queue"
+GROUP = "workers"
+WORKERS = f"{PREFIX}:workers"
+STATS = f"{PREFIX}:stats"
+STATES = ("queued", "running", "succeeded", "failed", "cancelled")
+FINAL_STATES = ("succeeded", "failed", "cancelled")
+TIMING_KEYS = ("build", "solve", "collision", "gia", "total")
+
+
+def job_key(job_id: str) -> str:
+    return f"{PREFIX}:job:{job_id}"
+
+
+def events_key(job_id: str) -> str:
+    return f"{PREFIX}:job:{job_id}:events"
+
+
+def owner_key(owner: str) -> str:
+    return f"{PREFIX}:owner:{owner}:jobs"
+
+
+def state_key(state: str) -> str:
+    return f"{PREFIX}:state:{state}"
+
+
+def idempotency_key(owner: str, key: str) -> str:
+    return f"{PREFIX}:idem:{owner}:{key}"
+
+
+def final_event_id(frames_total: int) -> str:
+    return f"{frames_total + 1}-0"
+
+
+def frame_event_id(index: int) -> str:
+    return f"{index + 1}-0"
+
+
+# -- Lua scripts: each is one atomic transition ---------------------------------------------
+# KEYS[1] job hash, KEYS[2] events stream. Set keys are built inside the scripts (single
+# Redis instance; weft does not use Redis Cluster).
+
+# ARGV: worker, now. Returns the job's state after the call ('running' if the worker may run it).
+START_LUA = """
+local state = redis.call('HGET', KEYS[1], 'state')
+if not state then return 'missing' end
+if state ~= 'queued' and state ~= 'running' then return state end
+redis.call('SMOVE', 'weft:state:' .. state, 'weft:state:running', ARGV[3])
+local fields = {'state', 'running', 'worker', ARGV[1], 'heartbeat', ARGV[2]}
+if redis.call('HEXISTS', KEYS[1], 'started') == 0 then
+  table.insert(fields, 'started'); table.insert(fields, ARGV[2])
+end
+redis.call('HSET', KEYS[1], unpack(fields))
+redis.call('HINCRBY', KEYS[1], 'attempts', 1)
+return 'running'
+"""
+
+# KEYS[1] job hash, KEYS[2] queue stream. ARGV: worker, now, stream entry id, group.
+# Keeps the worker's claim on its entry fresh, only while the job is still its own (a worker
+# that was presumed dead and replaced must not take the entry back).
+HEARTBEAT_LUA = """
+if redis.call('HGET', KEYS[1], 'worker') ~= ARGV[1] then return 0 end
+redis.call('HSET', KEYS[1], 'heartbeat', ARGV[2])
+redis.call('XCLAIM', KEYS[2], ARGV[4], ARGV[1], 0, ARGV[3], 'JUSTID')
+return 1
+"""
+
+# ARGV: new final state, now, payload JSON, final event id, job id, worker, then field/value
+# pairs. Returns 1 if this call finished the job, 0 if it was already final, -1 if the job has
+# been taken over by another worker.
+FINISH_LUA = """
+local state = redis.call('HGET', KEYS[1], 'state')
+if not state then return 0 end
+if state == 'succeeded' or state == 'failed' or state == 'cancelled' then return 0 end
+if redis.call('HGET', KEYS[1], 'worker') ~= ARGV[6] then return -1 end
+redis.call('SMOVE', 'weft:state:' .. state, 'weft:state:' .. ARGV[1], ARGV[5])
+redis.call('HSET', KEYS[1], 'state', ARGV[1], 'finished', ARGV[2])
+for i = 7, #ARGV, 2 do redis.call('HSET', KEYS[1], ARGV[i], ARGV[i + 1]) end
+redis.pcall('XADD', KEYS[2], ARGV[4], 'type', 'end', 'data', ARGV[3])
+redis.call('HINCRBY', 'weft:stats', 'jobs_' .. ARGV[1], 1)
+return 1
+"""
+
+# ARGV: event id, payload JSON, frames_done, build, solve, collision, gia, total, simulated (0/1).
+# Returns 1 if the frame was published now, 0 if it had been published before.
+FRAME_LUA = """
+local ok = redis.pcall('XADD', KEYS[2], ARGV[1], 'type', 'frame', 'data', ARGV[2])
+if type(ok) == 'table' and ok.err then return 0 end
+redis.call('HSET', KEYS[1], 'frames_done', ARGV[3])
+if ARGV[9] == '1' then
+  redis.call('HINCRBYFLOAT', KEYS[1], 'sum_build', ARGV[4])
+  redis.call('HINCRBYFLOAT', KEYS[1], 'sum_solve', ARGV[5])
+  redis.call('HINCRBYFLOAT', KEYS[1], 'sum_collision', ARGV[6])
+  redis.call('HINCRBYFLOAT', KEYS[1], 'sum_gia', ARGV[7])
+  redis.call('HINCRBYFLOAT', KEYS[1], 'sum_total', ARGV[8])
+  redis.call('HINCRBY', KEYS[1], 'sim_frames', 1)
+  redis.call('HINCRBY', 'weft:stats', 'frames_simulated', 1)
+end
+return 1
+"""
+
+# ARGV: now, payload JSON, final event id, job id.
+# Returns the state after the call: 'cancelled' (was queued), 'cancelling' (running), or the
+# final state it already had.
+CANCEL_LUA = """
+local state = redis.call('HGET', KEYS[1], 'state')
+if not state then return 'missing' end
+if state == 'queued' then
+  redis.call('SMOVE', 'weft:state:queued', 'weft:state:cancelled', ARGV[4])
+  redis.call('HSET', KEYS[1], 'state', 'cancelled', 'finished', ARGV[1], 'cancel_requested', '1')
+  redis.pcall('XADD', KEYS[2], ARGV[3], 'type', 'end', 'data', ARGV[2])
+  redis.call('HINCRBY', 'weft:stats', 'jobs_cancelled', 1)
+  return 'cancelled'
+end
+if state == 'running' then
+  redis.call('HSET', KEYS[1], 'cancel_requested', '1')
+  return 'cancelling'
+end
+return state
+"""
+
+
+def now() -> float:
+    return time.time()
+
+
+

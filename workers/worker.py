@@ -1,0 +1,272 @@
+"""A weft worker: takes jobs from the Redis stream and runs them frame by frame.
+
+Each frame is appended to the job's HDF5 cache by ``ShotRunner`` and then published as an
+event (see ``workers.jobs``). A background thread heart-beats: it refreshes the worker's
+record and re-claims the worker's stream entry so that its idle time stays short; an entry
+whose worker died (no heartbeat) goes idle and is taken over by another worker, which resumes
+the job from the solver state saved in the cache at the last finished frame.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import os
+import signal
+import socket
+import threading
+import traceback
+from typing import Any
+
+import redis
+
+from api_schemas import FrameTelemetry
+from weft.runner import FrameRecord, ShotRunner, SolverFailure
+from weft.scene import ShotError, parse_shot, resolve_scene
+from workers import jobs
+from workers.settings import ServiceSettings
+
+log = logging.getLogger("weft.worker")
+
+
+class Requeue(Exception):
+    """Raised between frames when the worker is shutting down: the job goes back to the queue."""
+
+
+class Superseded(Exception):
+    """Raised between frames when another worker took the job over (this one was presumed dead)."""
+
+
+class Worker:
+    def __init__(self, settings: ServiceSettings, name: str | None = None) -> None:
+        self.settings = settings
+        self.name = name or f"{socket.gethostname()}-{os.getpid()}"
+        self.redis = redis.Redis.from_url(settings.redis_url, decode_responses=True, socket_timeout=30)
+        self.start_script = self.redis.register_script(jobs.START_LUA)
+        self.finish_script = self.redis.register_script(jobs.FINISH_LUA)
+        self.frame_script = self.redis.register_script(jobs.FRAME_LUA)
+        self.heartbeat_script = self.redis.register_script(jobs.HEARTBEAT_LUA)
+        self.stopping = threading.Event()
+        self._lock = threading.Lock()
+        self._current: tuple[str, str] | None = None  # (stream entry id, job id)
+        self._started = jobs.now()
+
+    # -- lifecycle --------------------------------------------------------------------------
+    def run_forever(self) -> None:
+        beat = threading.Thread(target=self._heartbeat_loop, name="heartbeat", daemon=True)
+        beat.start()
+        log.info("worker %s started (redis %s)", self.name, self.settings.redis_url)
+        while not self.stopping.is_set():
+            try:
+                self._ensure_group()
+                entry = self._next_entry()
+                if entry is not None:
+                    self._process(*entry)
+            except redis.RedisError as exc:
+                log.warning("redis unavailable (%s); retrying", exc)
+                self.stopping.wait(0.5)
+        self._deregister()
+
+    def stop(self, *_: Any) -> None:
+        self.stopping.set()
+
+    def _ensure_group(self) -> None:
+        try:
+            self.redis.xgroup_create(jobs.QUEUE, jobs.GROUP, id="0", mkstream=True)
+        except redis.ResponseError as exc:
+            if "BUSYGROUP" not in str(exc):
+                raise
+
+    def _next_entry(self) -> tuple[str, str] | None:
+        """A stale entry of a dead worker first, else a new one (blocking up to one second)."""
+        claim_ms = int(self.settings.claim_after_seconds * 1000)
+        _, claimed, _ = self.redis.xautoclaim(jobs.QUEUE, jobs.GROUP, self.name, claim_ms, "0-0", count=1)
+        for entry_id, fields in claimed:
+            if fields:  # an entry trimmed from the stream comes back without fields
+                return entry_id, fields["job"]
+            self.redis.xack(jobs.QUEUE, jobs.GROUP, entry_id)
+        read = self.redis.xreadgroup(jobs.GROUP, self.name, {jobs.QUEUE: ">"}, count=1, block=1000)
+        for _, entries in read or []:
+            for entry_id, fields in entries:
+                return entry_id, fields["job"]
+        return None
+
+    # -- heartbeat --------------------------------------------------------------------------
+    def _heartbeat_loop(self) -> None:
+        while not self.stopping.is_set():
+            try:
+                self._beat()
+            except redis.RedisError:
+                pass
+            self.stopping.wait(self.settings.heartbeat_seconds)
+
+    def _beat(self) -> None:
+        with self._lock:
+            current = self._current
+        record = {
+            "name": self.name, "pid": os.getpid(), "host": socket.gethostname(), "started": self._started,
+            "heartbeat": jobs.now(), "job": current[1] if current else None,
+        }
+        pipe = self.redis.pipeline(transaction=False)
+        pipe.hset(jobs.WORKERS, self.name, json.dumps(record))
+        pipe.execute()
+        if current is not None:
+            # Re-claiming our own entry resets its idle time: it is not taken over while we live.
+            self.heartbeat_script(
+                keys=[jobs.job_key(current[1]), jobs.QUEUE], args=[self.name, record["heartbeat"], current[0], jobs.GROUP]
+            )
+
+    def _deregister(self) -> None:
+        try:
+            self.redis.hdel(jobs.WORKERS, self.name)
+        except redis.RedisError:
+            pass
+
+    # -- one job ----------------------------------------------------------------------------
+    def _process(self, entry_id: str, job_id: str) -> None:
+        key = jobs.job_key(job_id)
+        state = self.start_script(keys=[key, jobs.events_key(job_id)], args=[self.name, jobs.now(), job_id])
+        if state != "running":
+            log.info("job %s is %s; dropping its queue entry", job_id, state)
+            self.redis.xack(jobs.QUEUE, jobs.GROUP, entry_id)
+            return
+        with self._lock:
+            self._current = (entry_id, job_id)
+        try:
+            self._beat()
+            job = self.redis.hgetall(key)
+            if int(job.get("attempts", 1)) > self.settings.max_attempts:
+                reason = f"gave up after {self.settings.max_attempts} attempts (workers died)"
+                self._finish(entry_id, job_id, "failed", error_reason=reason)
+            elif job.get("cancel_requested") == "1":  # cancelled while its previous worker was dying
+                self._finish(entry_id, job_id, "cancelled")
+            else:
+                self._run(entry_id, job_id, job)
+        except Requeue:
+            # Shutting down: hand the job back to the queue at once (no claim timeout).
+            pipe = self.redis.pipeline(transaction=True)
+            pipe.hset(key, mapping={"state": "queued", "worker": ""})
+            pipe.smove(jobs.state_key("running"), jobs.state_key("queued"), job_id)
+            pipe.xadd(jobs.QUEUE, {"job": job_id})
+            pipe.xack(jobs.QUEUE, jobs.GROUP, entry_id)
+            pipe.execute()
+        except Superseded:
+            log.warning("job %s was taken over by another worker; leaving it", job_id)
+        finally:
+            with self._lock:
+                self._current = None
+            try:
+                self._beat()
+            except redis.RedisError:
+                pass
+
+    def _run(self, entry_id: str, job_id: str, job: dict[str, str]) -> None:
+        job_dir = self.settings.job_dir(job_id)
+        cache = self.settings.cache_path(job_dir)
+        try:
+            shot = parse_shot(json.loads((job_dir / "shot.json").read_text()))
+            scene = resolve_scene(shot, self.settings.assets_dir(job_dir))
+        except (OSError, ValueError, ShotError) as exc:
+            self._finish(entry_id, job_id, "failed", error_reason=f"cannot load the shot: {exc}")
+            return
+        frames_total = scene.frame_count
+        published = int(job.get("frames_done", 0))
+        if cache.exists():
+            self._backfill(job_id, cache, published, frames_total)
+        first_index: list[int] = []
+
+        def on_frame(record: FrameRecord) -> None:
+            if not first_index:
+                first_index.append(record.index)
+                if record.index > 0:
+                    self._mark_resumed(job_id, record.index - 1 + shot.frame_range[0], record.index)
+            self._publish(job_id, record.index, frames_total, record.telemetry)
+
+        def should_stop() -> bool:
+            if self.stopping.is_set():
+                raise Requeue
+            cancel, worker = self.redis.hmget(jobs.job_key(job_id), ["cancel_requested", "worker"])
+            if worker != self.name:
+                raise Superseded
+            return cancel == "1"
+
+        runner = ShotRunner(scene, cache, threads=self.settings.solver_threads, resume=True)
+        try:
+            summary = runner.run(on_frame=on_frame, should_stop=should_stop)
+        except SolverFailure as exc:
+            self._finish(entry_id, job_id, "failed", error_frame=exc.frame, error_reason=exc.reason)
+            return
+        except (Requeue, Superseded, redis.RedisError):
+            raise
+        except Exception as exc:  # a bad cache or an unexpected error fails this job, not the worker
+            log.error("job %s: %s", job_id, traceback.format_exc())
+            self._finish(entry_id, job_id, "failed", error_reason=f"{type(exc).__name__}: {exc}")
+            return
+        state = "cancelled" if summary.status == "cancelled" else "succeeded"
+        self._finish(entry_id, job_id, state)
+
+    def _publish(self, job_id: str, index: int, frames_total: int, t: FrameTelemetry) -> None:
+        payload = json.dumps({"index": index, "frames_total": frames_total, "published_at": jobs.now(), **t.model_dump()})
+        self.frame_script(
+            keys=[jobs.job_key(job_id), jobs.events_key(job_id)],
+            args=[
+                jobs.frame_event_id(index), payload, index + 1, t.build_seconds, t.solve_seconds,
+                t.collision_seconds, t.gia_seconds, t.total_seconds, 1 if t.substeps > 0 else 0,
+            ],
+        )
+
+    def _backfill(self, job_id: str, cache: Any, published: int, frames_total: int) -> None:
+        """Publish frames a dead worker wrote to the cache but did not get to announce."""
+        from weft.cache import CacheError, open_cache_reader
+
+        try:
+            with open_cache_reader(cache) as f:
+                rows = int(f["state/frame_index"][0]) + 1
+                telemetry = f["telemetry"][:rows]
+        except (CacheError, KeyError, OSError):
+            return
+        for index in range(published, rows):
+            row = telemetry[index]
+            t = FrameTelemetry(**{name: row[name].item() for name in row.dtype.names})
+            self._publish(job_id, index, frames_total, t)
+
+    def _mark_resumed(self, job_id: str, frame: int, index: int) -> None:
+        payload = json.dumps({"resumed_from_frame": frame, "worker": self.name})
+        pipe = self.redis.pipeline(transaction=True)
+        pipe.hset(jobs.job_key(job_id), mapping={"resumed_from": frame})
+        pipe.xadd(jobs.events_key(job_id), {"type": "resumed", "data": payload}, id=f"{index}-*")
+        pipe.execute()
+
+    def _finish(self, entry_id: str, job_id: str, state: str, error_frame: int | None = None, error_reason: str = "") -> None:
+        key = jobs.job_key(job_id)
+        fields: list[Any] = []
+        if error_frame is not None:
+            fields += ["error_frame", error_frame]
+        if error_reason:
+            fields += ["error_reason", error_reason]
+        job = self.redis.hgetall(key)
+        frames_total = int(job.get("frames_total", 0))
+        payload = json.dumps({
+            "state": state, "frames_done": int(job.get("frames_done", 0)),
+            "error_frame": error_frame, "error_reason": error_reason or None,
+        })
+        done = self.finish_script(
+            keys=[key, jobs.events_key(job_id)],
+            args=[state, jobs.now(), payload, jobs.final_event_id(frames_total), job_id, self.name, *fields],
+        )
+        if done == -1:
+            raise Superseded
+        self.redis.xack(jobs.QUEUE, jobs.GROUP, entry_id)
+        log.info("job %s %s", job_id, state)
+
+
+def main() -> None:
+    logging.basicConfig(level=os.environ.get("WEFT_LOG_LEVEL", "INFO"), format="%(asctime)s %(name)s %(message)s")
+    worker = Worker(ServiceSettings.from_env(), os.environ.get("WEFT_WORKER_NAME") or None)
+    signal.signal(signal.SIGTERM, worker.stop)
+    signal.signal(signal.SIGINT, worker.stop)
+    worker.run_forever()
+
+
+if __name__ == "__main__":
+    main()
