@@ -23,7 +23,8 @@ PositiveFloat = Annotated[float, Field(gt=0.0, allow_inf_nan=False)]
 NonNegativeFloat = Annotated[float, Field(ge=0.0, allow_inf_nan=False)]
 Vec3 = tuple[FiniteFloat, FiniteFloat, FiniteFloat]
 Vec2 = tuple[FiniteFloat, FiniteFloat]
-Triangle = tuple[int, int, int]
+VertexIndex = Annotated[int, Field(ge=0, lt=2**31, description="0-based vertex index")]
+Triangle = tuple[VertexIndex, VertexIndex, VertexIndex]
 Name = Annotated[str, Field(min_length=1, max_length=64, pattern=r"^[A-Za-z0-9_.-]+$")]
 AssetPath = Annotated[str, Field(min_length=1, max_length=256)]
 
@@ -122,7 +123,7 @@ class Pin(StrictModel):
     """Vertices held in place: fixed at their initial positions, or attached to the closest
     point of an animated body (keeping their offset in that triangle's frame)."""
 
-    vertices: list[int] = Field(min_length=1)
+    vertices: list[VertexIndex] = Field(min_length=1)
     body: Name | None = Field(default=None, description="Name of the body to follow; none: fixed in space.")
 
 

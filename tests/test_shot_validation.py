@@ -72,7 +72,16 @@ def test_face_index_out_of_range(tmp_path) -> None:
 def test_negative_face_index(tmp_path) -> None:
     doc = base_doc()
     doc["cloth"][0]["mesh"]["faces"][0] = [-1, 1, 2]
-    expect(doc, tmp_path, "cloth[0].mesh.faces[0]", "out of range")
+    expect(doc, tmp_path, "cloth[0].mesh.faces[0][0]", "greater than or equal to 0")
+
+
+def test_huge_vertex_index_is_a_field_error(tmp_path) -> None:
+    doc = base_doc()
+    doc["cloth"][0]["mesh"]["faces"][0] = [0, 1, 2**70]
+    expect(doc, tmp_path, "cloth[0].mesh.faces[0][2]", "less than")
+    doc = base_doc()
+    doc["cloth"][0]["pins"] = [{"vertices": [2**64]}]
+    expect(doc, tmp_path, "cloth[0].pins[0].vertices[0]", "less than")
 
 
 def test_zero_area_rest_triangle(tmp_path) -> None:
