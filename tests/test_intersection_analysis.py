@@ -258,3 +258,18 @@ def test_speed_20k_triangle_pair(capsys):
         )
     assert r["closed_path_count"] > 10
     assert elapsed < 5.0
+
+
+def test_body_body_query_for_pinch_detection():
+    sphere = trimesh.creation.icosphere(subdivisions=2, radius=0.1)
+    x1 = np.ascontiguousarray(sphere.vertices, dtype=np.float64)
+    f1 = np.ascontiguousarray(sphere.faces, dtype=np.int32)
+    overlapping = _solver.intersection_analysis(x1, f1, x1 + [0.15, 0.0013, 0.0007], f1, colour=False)
+    assert overlapping["intersecting"] and overlapping["path_count"] == 1 and overlapping["closed_path_count"] == 1
+    assert overlapping["a"]["coloured_vertex_count"] == 0  # colouring skipped
+    # Inside tests come for free between closed bodies: vertices of each sphere inside the other.
+    inside = overlapping["a"]["inside_other"].astype(bool)
+    d = np.linalg.norm(x1 - [0.15, 0.0013, 0.0007], axis=1)  # the faceted sphere lies between r = 0.09 and 0.1
+    assert inside[d < 0.09].all() and not inside[d > 0.1].any() and inside.sum() >= (d < 0.09).sum() > 0
+    apart = _solver.intersection_analysis(x1, f1, x1 + [0.25, 0, 0], f1, colour=False)
+    assert not apart["intersecting"] and apart["path_count"] == 0
