@@ -185,6 +185,30 @@ def test_self_intersection_closed_loop_colours_both_discs():
     assert d.max() < 0.06 * np.sqrt(2 * np.log(0.15 / 0.1)) + 0.03
 
 
+def test_self_intersection_through_a_crease_vertex():
+    # A strip folded flat at a crease (x = |u - 1|); near the crease the top layer dips below the
+    # bottom one inside a half disc of radius 0.2. The double curve runs from crease vertex to
+    # crease vertex (shared-vertex ends); on the unfolded strip its two preimages close into a loop
+    # through those vertices, which are walls, so the disc (on both layers) is coloured.
+    yc = 0.3013
+
+    def fn(uu, vv):
+        x = np.abs(uu - 1)
+        return np.stack([x, vv, np.where(uu > 1, 0.5 * x * (np.hypot(x, vv - yc) - 0.2), 0.0)], -1)
+
+    x, f = sheet(np.linspace(0, 2, 81), np.linspace(0, 0.6, 25), fn)
+    r = _solver.intersection_analysis(x, f)
+    check_consistent(r)
+    assert r["path_count"] == 1
+    path = r["paths"][0]
+    assert path["end_kinds"] == ("shared_vertex", "shared_vertex") and path["separates"][0]
+    assert len(path["vertices"]) == 2 and np.all(x[path["vertices"], 0] == 0)  # crease vertices
+    radius = np.hypot(x[:, 0], x[:, 1] - yc)
+    coloured = r["a"]["vertex_colour"].astype(bool)
+    assert not coloured[radius > 0.2].any() and coloured[radius < 0.17].all()
+    assert not coloured[path["vertices"]].any()
+
+
 def test_no_intersection_gives_nothing():
     xa, fa = plane([0, 0, 0], [1, 0, 0], [0, 1, 0], 11, 11)
     xb, fb = plane([0, 0, 0.01], [1, 0, 0], [0, 1, 0], 11, 11)

@@ -73,6 +73,7 @@ py::dict result_dict(const GiaResult& r) {
     py::dict d;
     d["hits"] = to_array(p.hits);
     d["closed"] = p.closed;
+    d["vertices"] = to_array(p.vertices);
     d["end_kinds"] = py::make_tuple(end_kind_name(p.end_kind[0]), end_kind_name(p.end_kind[1]));
     d["end_meshes"] = py::make_tuple(p.end_mesh[0], p.end_mesh[1]);
     d["separates"] = py::make_tuple(p.separates[0], p.separates[1]);

@@ -166,7 +166,7 @@ bool face_has_vertex(const Faces& f, int t, int v) { return f(t, 0) == v || f(t,
 struct PairHits {
   std::array<std::uint64_t, 6> keys;
   int count = 0;
-  bool shares_vertex = false;
+  int shared_vertex = -1;  // self mode: the one vertex the two triangles share, if any
 };
 
 // The hits of one triangle pair: edges of s (mesh ms) against t (mesh mt) and vice versa.
@@ -180,17 +180,18 @@ PairHits pair_hits(const MeshRef& ms, int s, int mesh_s, const MeshRef& mt, int 
       const int e = em.topo->face_edges[tri_e][k];
       if (self) {
         const int v0 = em.topo->edges(e, 0), v1 = em.topo->edges(e, 1);
-        if (face_has_vertex(*tm.f, tri, v0) || face_has_vertex(*tm.f, tri, v1)) {
-          out.shares_vertex = true;
-          continue;
-        }
+        if (face_has_vertex(*tm.f, tri, v0) || face_has_vertex(*tm.f, tri, v1)) continue;
       }
       if (edge_crosses_triangle(em, e, tm, tri)) out.keys[out.count++] = hit_key(mesh_e, e, tri);
     }
   };
   if (self) {
     int shared = 0;
-    for (int i = 0; i < 3; ++i) shared += face_has_vertex(ft, t, fs(s, i));
+    for (int i = 0; i < 3; ++i)
+      if (face_has_vertex(ft, t, fs(s, i))) {
+        ++shared;
+        out.shared_vertex = fs(s, i);
+      }
     if (shared >= 2) return out;  // neighbours across an edge cannot cross each other
   }
   test_edges(ms, s, mesh_s, mt, t);
@@ -203,6 +204,8 @@ PairHits pair_hits(const MeshRef& ms, int s, int mesh_s, const MeshRef& mt, int 
 
 struct HitGraph {
   std::vector<std::array<int, 2>> links;  // pairs of hit ids joined by a triangle pair
+  std::vector<int> link_vertex;           // self mode: vertex a link passes through, else -1
+  std::vector<int> end_vertex;            // per hit: shared vertex its path ends at, else -1
   std::vector<int> offset, adjacency;     // CSR hit -> link ids
   int degree(int h) const { return offset[h + 1] - offset[h]; }
 };
@@ -231,7 +234,7 @@ GiaEndKind end_kind(const GiaResult& r, const std::array<const GiaTopology*, 2>&
     end_mesh = hit.edge_mesh;
     return GiaEndKind::kBoundary;
   }
-  return r.self ? GiaEndKind::kSharedVertex : GiaEndKind::kDangling;
+  return g.end_vertex[h] >= 0 ? GiaEndKind::kSharedVertex : GiaEndKind::kDangling;
 }
 
 void trace_paths(GiaResult& r, const HitGraph& g, const std::array<const GiaTopology*, 2>& topo) {
@@ -249,6 +252,14 @@ void trace_paths(GiaResult& r, const HitGraph& g, const std::array<const GiaTopo
     auto finish = [&](GiaPath& p) {
       p.end_kind[0] = end_kind(r, topo, g, p.hits.front(), p.end_mesh[0]);
       p.end_kind[1] = end_kind(r, topo, g, p.hits.back(), p.end_mesh[1]);
+      if (p.hits.size() == 1 && p.end_kind[0] == GiaEndKind::kBoundary && g.end_vertex[h] >= 0) {
+        p.end_kind[1] = GiaEndKind::kSharedVertex;  // one hit between a boundary and a vertex
+        p.end_mesh[1] = -1;
+      }
+      for (int k = 0; k < 2; ++k) {
+        const int end = k == 0 ? p.hits.front() : p.hits.back();
+        if (g.end_vertex[end] >= 0 && (k == 0 || p.hits.size() > 1)) p.vertices.push_back(g.end_vertex[end]);
+      }
       r.paths.push_back(std::move(p));
     };
     if (g.degree(h) == 0) {
@@ -265,6 +276,7 @@ void trace_paths(GiaResult& r, const HitGraph& g, const std::array<const GiaTopo
       int cur = h;
       while (true) {
         used[link] = 1;
+        if (g.link_vertex[link] >= 0) p.vertices.push_back(g.link_vertex[link]);
         cur = other(link, cur);
         p.hits.push_back(cur);
         if (g.degree(cur) != 2) break;
@@ -283,6 +295,7 @@ void trace_paths(GiaResult& r, const HitGraph& g, const std::array<const GiaTopo
     int cur = start, link = l;
     while (true) {
       used[link] = 1;
+      if (g.link_vertex[link] >= 0) p.vertices.push_back(g.link_vertex[link]);
       cur = other(link, cur);
       if (cur == start) break;
       p.hits.push_back(cur);
@@ -335,31 +348,37 @@ void colour_mesh(GiaResult& r, int m, const Positions& x, const Faces& f, const 
     }
     if (walls.empty()) continue;
     for (int e : walls) wall_stamp[e] = p;
-    // Flood fill from every wall endpoint not yet reached.
+    // Vertices the path runs through (self mode, shared vertices) belong to no region.
+    std::vector<int> seeds;
+    for (int v : path.vertices) {
+      region_stamp[v] = p;
+      region[v] = -1;
+      for (int k = topo.vertex_offset[v]; k < topo.vertex_offset[v + 1]; ++k) seeds.push_back(topo.vertex_neighbour[k]);
+    }
+    for (int e : walls) seeds.insert(seeds.end(), {topo.edges(e, 0), topo.edges(e, 1)});
+    // Flood fill from every seed not yet reached.
     std::vector<double> region_area;
     std::vector<int> region_seed;
-    for (int e : walls)
-      for (int side = 0; side < 2; ++side) {
-        const int seed = topo.edges(e, side);
-        if (region_stamp[seed] == p) continue;
-        const int id = static_cast<int>(region_area.size());
-        region_area.push_back(0.0);
-        region_seed.push_back(seed);
-        queue.assign(1, seed);
-        region_stamp[seed] = p;
-        region[seed] = id;
-        for (size_t q = 0; q < queue.size(); ++q) {
-          const int v = queue[q];
-          region_area[id] += area[v];
-          for (int k = topo.vertex_offset[v]; k < topo.vertex_offset[v + 1]; ++k) {
-            const int w = topo.vertex_neighbour[k];
-            if (region_stamp[w] == p || wall_stamp[topo.vertex_edge[k]] == p) continue;
-            region_stamp[w] = p;
-            region[w] = id;
-            queue.push_back(w);
-          }
+    for (int seed : seeds) {
+      if (region_stamp[seed] == p) continue;
+      const int id = static_cast<int>(region_area.size());
+      region_area.push_back(0.0);
+      region_seed.push_back(seed);
+      queue.assign(1, seed);
+      region_stamp[seed] = p;
+      region[seed] = id;
+      for (size_t q = 0; q < queue.size(); ++q) {
+        const int v = queue[q];
+        region_area[id] += area[v];
+        for (int k = topo.vertex_offset[v]; k < topo.vertex_offset[v + 1]; ++k) {
+          const int w = topo.vertex_neighbour[k];
+          if (region_stamp[w] == p || wall_stamp[topo.vertex_edge[k]] == p) continue;
+          region_stamp[w] = p;
+          region[w] = id;
+          queue.push_back(w);
         }
       }
+    }
     const int regions = static_cast<int>(region_area.size());
     path.separates[m] = regions >= 2;
     if (regions < 2) continue;
@@ -370,7 +389,7 @@ void colour_mesh(GiaResult& r, int m, const Positions& x, const Faces& f, const 
           (region_area[i] == region_area[keep] && region_seed[i] < region_seed[keep]))
         keep = i;
     for (int v = 0; v < nv; ++v) {
-      if (region_stamp[v] != p || region[v] == keep) continue;
+      if (region_stamp[v] != p || region[v] == keep || region[v] < 0) continue;
       ++path.coloured_vertices[m];
       out.vertex_colour[v] = 1;
       if (out.vertex_path[v] < 0) out.vertex_path[v] = p;
@@ -463,6 +482,7 @@ GiaResult analyse(const std::array<MeshRef, 2>& mesh, bool self, const GiaOption
   // two hits links them.
   std::unordered_map<std::uint64_t, int> hit_id;
   HitGraph graph;
+  std::vector<std::array<int, 2>> vertex_halves;  // (shared vertex, hit)
   for (size_t i = 0; i < pairs.size(); ++i) {
     const PairHits& ph = pair_result[i];
     if (ph.count == 0) continue;
@@ -483,10 +503,33 @@ GiaResult analyse(const std::array<MeshRef, 2>& mesh, bool self, const GiaOption
     }
     if (ph.count == 2) {
       graph.links.push_back({ids[0], ids[1]});
-    } else if (!(ph.count == 1 && ph.shares_vertex)) {
+      graph.link_vertex.push_back(-1);
+    } else if (ph.count == 1 && ph.shared_vertex >= 0) {
+      vertex_halves.push_back({ph.shared_vertex, ids[0]});
+    } else {
       ++r.inconsistent_pairs;
-      for (int k = 0; k + 1 < ph.count; k += 2) graph.links.push_back({ids[k], ids[k + 1]});
+      for (int k = 0; k + 1 < ph.count; k += 2) {
+        graph.links.push_back({ids[k], ids[k + 1]});
+        graph.link_vertex.push_back(-1);
+      }
     }
+  }
+  // Self mode: a pair sharing one vertex intersects in a segment from that vertex to its one hit.
+  // Two such half segments at a vertex join there; otherwise the path ends at the vertex.
+  graph.end_vertex.assign(r.hits.size(), -1);
+  std::sort(vertex_halves.begin(), vertex_halves.end());
+  for (size_t i = 0; i < vertex_halves.size();) {
+    size_t j = i;
+    while (j < vertex_halves.size() && vertex_halves[j][0] == vertex_halves[i][0]) ++j;
+    const int v = vertex_halves[i][0];
+    if (j - i == 2 && vertex_halves[i][1] != vertex_halves[i + 1][1]) {
+      graph.links.push_back({vertex_halves[i][1], vertex_halves[i + 1][1]});
+      graph.link_vertex.push_back(v);
+    } else {
+      for (size_t k = i; k < j; ++k)
+        if (graph.end_vertex[vertex_halves[k][1]] < 0) graph.end_vertex[vertex_halves[k][1]] = v;
+    }
+    i = j;
   }
   // Approximate crossing points, for reporting.
   for (GiaHit& h : r.hits) {

@@ -47,7 +47,8 @@ GiaTopology build_gia_topology(int vertex_count, const Faces& faces);
 enum class GiaEndKind : int {
   kClosed = 0,        // (closed paths have no ends)
   kBoundary = 1,      // the end hit's edge is a boundary edge of its mesh (end_mesh says which)
-  kSharedVertex = 2,  // self mode: the path runs into a vertex shared by the two triangles
+  kSharedVertex = 2,  // self mode: the path runs into a vertex shared by two crossing triangles
+                      // (joined through the vertex when exactly two half-paths meet there)
   kNonManifold = 3,   // the end hit's edge has more than two faces; paths meet there
   kDangling = 4,      // should not happen (inconsistent pair); counted, never expected
 };
@@ -63,6 +64,9 @@ struct GiaHit {
 
 struct GiaPath {
   std::vector<int> hits;  // hit ids in order along the path
+  // Self mode only: vertices the path passes through or ends at (kSharedVertex cases). They act
+  // as walls in the colouring and are never coloured.
+  std::vector<int> vertices;
   bool closed = false;
   std::array<GiaEndKind, 2> end_kind = {GiaEndKind::kClosed, GiaEndKind::kClosed};  // first, last hit
   std::array<int, 2> end_mesh = {-1, -1};      // mesh whose boundary each end lies on, or -1
