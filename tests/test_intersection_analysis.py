@@ -92,6 +92,8 @@ def test_dome_pushed_through_colours_the_enclosed_disc_only():
     assert np.all(np.hypot(centres[fc > 0, 0], centres[fc > 0, 1]) < 0.13)
     # On the dome, the tip above the sheet is the smaller region.
     np.testing.assert_array_equal(r["b"]["vertex_colour"], (xb[:, 2] > 0).astype(np.int8))
+    for m in ("a", "b"):
+        np.testing.assert_array_equal(r[m]["vertex_parity_colour"], r[m]["vertex_colour"])
     assert r["a"]["inside_other"] is None and r["b"]["inside_other"] is None  # neither is closed
 
 
@@ -115,6 +117,7 @@ def test_sheet_cut_by_thin_cylinder_colours_exactly_the_inside():
     coloured = r["a"]["vertex_colour"]
     inside = r["a"]["inside_other"]
     np.testing.assert_array_equal(coloured, inside)  # path colouring agrees with ray parity
+    np.testing.assert_array_equal(r["a"]["vertex_parity_colour"], coloured)
     np.testing.assert_array_equal(inside, _solver.points_inside_closed_mesh(xa, xb, fb))
     # Analytic: inside the 32-gon cross-section (the sheet lies between the caps).
     ring = xb[(xb[:, 2] > 0) & (np.hypot(xb[:, 0], xb[:, 1]) > 0.005)]
@@ -122,6 +125,28 @@ def test_sheet_cut_by_thin_cylinder_colours_exactly_the_inside():
     np.testing.assert_array_equal(inside.astype(bool), point_in_polygon(xa[:, :2], polygon))
     assert 80 < coloured.sum() < 130  # ~ pi r^2 / h^2 = 113 vertices
     assert r["paths"][0]["separates"] == (True, True)  # the loop also cuts the cylinder in two
+
+
+def test_sheet_through_a_long_cylinder_parity_colouring_finds_the_inside_band():
+    # A horizontal cylinder (radius 5 cm, along y, longer than the sheet) cuts the sheet along two
+    # lines, each from boundary to boundary. Per path, each line splits the sheet and its smaller
+    # side is coloured (BWK's rule), which here is the outside on the left; the parity colouring
+    # of both paths together colours the band inside the cylinder.
+    cyl = trimesh.creation.cylinder(radius=0.05, height=2.0, sections=48)
+    cyl.apply_transform(trimesh.transformations.rotation_matrix(np.pi / 2, [1, 0, 0]))
+    xb = np.ascontiguousarray(cyl.vertices + [-0.2, 0.0, 0.0], dtype=np.float64)
+    fb = np.ascontiguousarray(cyl.faces, dtype=np.int32)
+    xa, fa = plane([-0.5 + 0.0011, -0.5 + 0.0007, 0.0013], [1, 0, 0], [0, 1, 0], 61, 61)
+    r = _solver.intersection_analysis(xa, fa, xb, fb)
+    check_consistent(r)
+    assert r["path_count"] == 2 and all(p["separates"][0] for p in r["paths"])
+    inside = r["a"]["inside_other"]
+    assert inside.sum() > 100
+    np.testing.assert_array_equal(r["a"]["vertex_parity_colour"], inside)
+    assert r["a"]["parity_conflicts"] == 0
+    per_path = r["a"]["vertex_colour"].astype(bool)
+    np.testing.assert_array_equal(per_path, xa[:, 0] < -0.2 + 0.05)  # left side, inside band included
+    # For single paths the two colourings coincide (checked on the other scenarios too).
 
 
 FOLD_RADIUS = 0.05
@@ -178,6 +203,7 @@ def test_self_intersection_closed_loop_colours_both_discs():
     bump_tip = top & (x[:, 2] < 0)  # top-layer vertices pushed below the bottom layer
     assert bump_tip.sum() > 3
     np.testing.assert_array_equal(coloured[top], bump_tip[top])
+    np.testing.assert_array_equal(r["a"]["vertex_parity_colour"], r["a"]["vertex_colour"])
     # On the bottom layer, the pierced disc: vertices under the part of the bump that is below z = 0.
     bottom_disc = coloured & ~top
     assert bottom_disc.sum() > 3

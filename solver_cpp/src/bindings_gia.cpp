@@ -40,6 +40,8 @@ py::dict mesh_dict(const GiaMeshColouring& m) {
   d["vertex_path"] = to_array(m.vertex_path);
   d["edge_colour"] = to_array(m.edge_colour);
   d["face_colour"] = to_array(m.face_colour);
+  d["vertex_parity_colour"] = to_array(m.vertex_parity_colour);
+  d["parity_conflicts"] = m.parity_conflicts;
   d["inside_other"] = m.inside_other.empty() ? py::object(py::none()) : py::object(to_array(m.inside_other));
   d["coloured_vertex_count"] = m.coloured_vertex_count;
   d["boundary_edge_count"] = m.boundary_edge_count;

@@ -320,6 +320,136 @@ std::vector<double> lumped_vertex_area(const Positions& x, const Faces& f) {
   return area;
 }
 
+// Edges of mesh m crossed an odd number of times by the given hits (even crossings leave both
+// endpoints on the same side).
+std::vector<int> odd_crossed_edges(const GiaResult& r, const std::vector<int>& hits, int m) {
+  std::vector<int> crossed;
+  for (int h : hits)
+    if (r.hits[h].edge_mesh == m) crossed.push_back(r.hits[h].edge);
+  std::sort(crossed.begin(), crossed.end());
+  std::vector<int> walls;
+  for (size_t i = 0; i < crossed.size();) {
+    size_t j = i;
+    while (j < crossed.size() && crossed[j] == crossed[i]) ++j;
+    if ((j - i) % 2 == 1) walls.push_back(crossed[i]);
+    i = j;
+  }
+  return walls;
+}
+
+// Flood fill of the vertex graph without the edges whose wall_stamp equals `stamp` and without
+// blocked vertices (set beforehand to region_stamp = stamp, region = -1). Each seed not yet
+// reached starts a region; returns the regions' areas and seeds.
+struct FloodFill {
+  const GiaTopology& topo;
+  const std::vector<double>& vertex_area;
+  std::vector<int> wall_stamp, region_stamp, region, queue;
+
+  FloodFill(const GiaTopology& t, const std::vector<double>& area)
+      : topo(t), vertex_area(area), wall_stamp(t.edges.rows(), -1), region_stamp(area.size(), -1),
+        region(area.size(), -1) {}
+
+  void block(int v, int stamp) {
+    region_stamp[v] = stamp;
+    region[v] = -1;
+  }
+
+  void fill(const std::vector<int>& seeds, int stamp, std::vector<double>& region_area, std::vector<int>& region_seed) {
+    for (int seed : seeds) {
+      if (region_stamp[seed] == stamp) continue;
+      const int id = static_cast<int>(region_area.size());
+      region_area.push_back(0.0);
+      region_seed.push_back(seed);
+      queue.assign(1, seed);
+      region_stamp[seed] = stamp;
+      region[seed] = id;
+      for (size_t q = 0; q < queue.size(); ++q) {
+        const int v = queue[q];
+        region_area[id] += vertex_area[v];
+        for (int k = topo.vertex_offset[v]; k < topo.vertex_offset[v + 1]; ++k) {
+          const int w = topo.vertex_neighbour[k];
+          if (region_stamp[w] == stamp || wall_stamp[topo.vertex_edge[k]] == stamp) continue;
+          region_stamp[w] = stamp;
+          region[w] = id;
+          queue.push_back(w);
+        }
+      }
+    }
+  }
+};
+
+// Parity colouring of one mesh over all separating paths together: regions of the mesh cut by
+// every wall alternate in/out across walls, so each connected group of regions is two-coloured
+// and its class of smaller area is coloured. A group whose walls do not two-colour (odd cycle)
+// is left uncoloured and counted in parity_conflicts.
+void parity_colour(GiaResult& r, int m, FloodFill& ff) {
+  GiaMeshColouring& out = r.mesh[m];
+  const int nv = static_cast<int>(ff.vertex_area.size());
+  const int stamp = static_cast<int>(r.paths.size());
+  out.vertex_parity_colour.assign(nv, 0);
+  std::vector<int> hits;
+  for (const GiaPath& path : r.paths) {
+    if (!path.separates[m]) continue;
+    hits.insert(hits.end(), path.hits.begin(), path.hits.end());
+    for (int v : path.vertices) ff.block(v, stamp);
+  }
+  const std::vector<int> walls = odd_crossed_edges(r, hits, m);
+  if (walls.empty()) return;
+  for (int e : walls) ff.wall_stamp[e] = stamp;
+  std::vector<int> seeds(nv);
+  for (int v = 0; v < nv; ++v) seeds[v] = v;
+  std::vector<double> region_area;
+  std::vector<int> region_seed;
+  ff.fill(seeds, stamp, region_area, region_seed);
+  const int regions = static_cast<int>(region_area.size());
+  // Region graph across walls (CSR), then a breadth-first two-colouring per group.
+  std::vector<std::array<int, 2>> adjacent;
+  for (int e : walls) {
+    const int a = ff.region[ff.topo.edges(e, 0)], b = ff.region[ff.topo.edges(e, 1)];
+    if (a >= 0 && b >= 0) adjacent.push_back({a, b});
+  }
+  std::vector<int> offset(regions + 1, 0), next(2 * adjacent.size());
+  for (const auto& ab : adjacent) {
+    ++offset[ab[0] + 1];
+    ++offset[ab[1] + 1];
+  }
+  for (int i = 0; i < regions; ++i) offset[i + 1] += offset[i];
+  std::vector<int> fill(offset.begin(), offset.end() - 1);
+  for (const auto& ab : adjacent) {
+    next[fill[ab[0]]++] = ab[1];
+    next[fill[ab[1]]++] = ab[0];
+  }
+  std::vector<int> side(regions, -1), coloured_side(regions, -1), group;
+  for (int root = 0; root < regions; ++root) {
+    if (side[root] >= 0 || offset[root] == offset[root + 1]) continue;
+    group.assign(1, root);
+    side[root] = 0;
+    double class_area[2] = {0.0, 0.0};
+    bool conflict = false;
+    for (size_t q = 0; q < group.size(); ++q) {
+      const int g = group[q];
+      class_area[side[g]] += region_area[g];
+      for (int k = offset[g]; k < offset[g + 1]; ++k) {
+        const int h = next[k];
+        if (side[h] < 0) {
+          side[h] = 1 - side[g];
+          group.push_back(h);
+        } else if (side[h] == side[g]) {
+          conflict = true;
+        }
+      }
+    }
+    r.mesh[m].parity_conflicts += conflict;
+    // Ties keep the class of the group's lowest region (lowest seed vertex) uncoloured.
+    const int colour = conflict ? -1 : (class_area[1] <= class_area[0] ? 1 : 0);
+    for (int g : group) coloured_side[g] = side[g] == colour ? 1 : 0;
+  }
+  for (int v = 0; v < nv; ++v) {
+    const int g = ff.region[v];
+    out.vertex_parity_colour[v] = g >= 0 && coloured_side[g] == 1;
+  }
+}
+
 // Colours one mesh: for each path, the mesh edges it crosses an odd number of times are walls;
 // the flood fill through the other edges splits the walls' connected component into regions. If
 // there are two or more, the path separates the mesh and every region but the largest (by
@@ -331,54 +461,23 @@ void colour_mesh(GiaResult& r, int m, const Positions& x, const Faces& f, const 
   out.vertex_colour.assign(nv, 0);
   out.vertex_path.assign(nv, -1);
   const std::vector<double> area = lumped_vertex_area(x, f);
-  std::vector<int> wall_stamp(ne, -1), region(nv, -1), region_stamp(nv, -1);
-  std::vector<int> queue;
+  FloodFill ff(topo, area);
   for (int p = 0; p < static_cast<int>(r.paths.size()); ++p) {
     GiaPath& path = r.paths[p];
-    std::vector<int> crossed;
-    for (int h : path.hits)
-      if (r.hits[h].edge_mesh == m) crossed.push_back(r.hits[h].edge);
-    std::sort(crossed.begin(), crossed.end());
-    std::vector<int> walls;
-    for (size_t i = 0; i < crossed.size();) {
-      size_t j = i;
-      while (j < crossed.size() && crossed[j] == crossed[i]) ++j;
-      if ((j - i) % 2 == 1) walls.push_back(crossed[i]);
-      i = j;
-    }
+    const std::vector<int> walls = odd_crossed_edges(r, path.hits, m);
     if (walls.empty()) continue;
-    for (int e : walls) wall_stamp[e] = p;
-    // Vertices the path runs through (self mode, shared vertices) belong to no region.
+    for (int e : walls) ff.wall_stamp[e] = p;
+    // Vertices the path runs through (self mode, shared vertices) belong to no region; the flood
+    // starts from their neighbours and from the walls' endpoints.
     std::vector<int> seeds;
     for (int v : path.vertices) {
-      region_stamp[v] = p;
-      region[v] = -1;
+      ff.block(v, p);
       for (int k = topo.vertex_offset[v]; k < topo.vertex_offset[v + 1]; ++k) seeds.push_back(topo.vertex_neighbour[k]);
     }
     for (int e : walls) seeds.insert(seeds.end(), {topo.edges(e, 0), topo.edges(e, 1)});
-    // Flood fill from every seed not yet reached.
     std::vector<double> region_area;
     std::vector<int> region_seed;
-    for (int seed : seeds) {
-      if (region_stamp[seed] == p) continue;
-      const int id = static_cast<int>(region_area.size());
-      region_area.push_back(0.0);
-      region_seed.push_back(seed);
-      queue.assign(1, seed);
-      region_stamp[seed] = p;
-      region[seed] = id;
-      for (size_t q = 0; q < queue.size(); ++q) {
-        const int v = queue[q];
-        region_area[id] += area[v];
-        for (int k = topo.vertex_offset[v]; k < topo.vertex_offset[v + 1]; ++k) {
-          const int w = topo.vertex_neighbour[k];
-          if (region_stamp[w] == p || wall_stamp[topo.vertex_edge[k]] == p) continue;
-          region_stamp[w] = p;
-          region[w] = id;
-          queue.push_back(w);
-        }
-      }
-    }
+    ff.fill(seeds, p, region_area, region_seed);
     const int regions = static_cast<int>(region_area.size());
     path.separates[m] = regions >= 2;
     if (regions < 2) continue;
@@ -389,12 +488,13 @@ void colour_mesh(GiaResult& r, int m, const Positions& x, const Faces& f, const 
           (region_area[i] == region_area[keep] && region_seed[i] < region_seed[keep]))
         keep = i;
     for (int v = 0; v < nv; ++v) {
-      if (region_stamp[v] != p || region[v] == keep || region[v] < 0) continue;
+      if (ff.region_stamp[v] != p || ff.region[v] == keep || ff.region[v] < 0) continue;
       ++path.coloured_vertices[m];
       out.vertex_colour[v] = 1;
       if (out.vertex_path[v] < 0) out.vertex_path[v] = p;
     }
   }
+  parity_colour(r, m, ff);
   out.coloured_vertex_count = static_cast<int>(std::count(out.vertex_colour.begin(), out.vertex_colour.end(), 1));
   // Edge and face states.
   out.edge_colour.assign(ne, kGiaFree);

@@ -85,6 +85,12 @@ struct GiaMeshColouring {
   std::vector<int> vertex_path;            // lowest id of the paths that coloured it, or -1
   std::vector<std::int8_t> edge_colour;    // kGiaFree / kGiaInside / kGiaContour
   std::vector<std::int8_t> face_colour;    // kGiaFree / kGiaInside / kGiaContour
+  // Parity colouring over all separating paths together (see docs): regions alternate in/out
+  // across every wall, and per group of adjacent regions the smaller class is coloured. Equals
+  // vertex_colour for one path or disjoint paths; right where several paths bound one region
+  // (a sheet through a long cylinder). Groups that do not two-colour count as parity_conflicts.
+  std::vector<std::int8_t> vertex_parity_colour;
+  int parity_conflicts = 0;
   // Only when the *other* mesh is closed (watertight) and GiaOptions::inside_test: 1 for
   // vertices inside it (ray parity with the same perturbed predicates), else empty.
   std::vector<std::int8_t> inside_other;
