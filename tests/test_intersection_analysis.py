@@ -267,10 +267,24 @@ def test_degenerate_contact_is_consistent_and_deterministic(name):
     for key in ("edge_mesh", "edge", "tri"):
         np.testing.assert_array_equal(r["hits"][key], again["hits"][key])
     np.testing.assert_array_equal(r["a"]["vertex_colour"], again["a"]["vertex_colour"])
-    if name == "vertex_on_face":
-        # The tent touches A at one point: the perturbed configuration either misses A or
-        # pokes through it in one small closed loop; it never reports an open path.
-        assert r["open_path_count"] == 0 and r["closed_path_count"] <= 1
+    swapped = _solver.intersection_analysis(xb, fb, xa, fa)
+    check_consistent(swapped)
+    # The documented outcomes of the symbolic perturbation (mesh A nudged, roughly, along +x, +y, +z).
+    if name.startswith("coplanar"):
+        assert r["hit_count"] == 0 and swapped["hit_count"] == 0
+    elif name == "edge_touching":  # B standing on A counts as pushed through; swapped, as touching
+        assert r["path_count"] == 1 and r["paths"][0]["separates"] == (False, True)
+        np.testing.assert_array_equal(r["b"]["vertex_colour"], (xb[:, 2] == 0).astype(np.int8))
+        assert swapped["hit_count"] == 0
+    else:  # the tent touching A at one point: one tiny loop, or nothing when swapped
+        assert r["closed_path_count"] == 1 and r["open_path_count"] == 0 and swapped["hit_count"] == 0
+
+
+def test_orient3d_sign_convention():
+    a, b, c = [0.0, 0, 0], [1.0, 0, 0], [0.0, 1, 0]
+    assert _solver.orient3d(a, b, c, [0.2, 0.2, -1.0]) == 1  # below counter-clockwise abc
+    assert _solver.orient3d(a, b, c, [0.2, 0.2, 1.0]) == -1
+    assert _solver.orient3d(a, b, c, [0.3, 0.7, 0.0]) == 0
 
 
 def test_bad_input_is_rejected():
