@@ -287,6 +287,34 @@ def test_orient3d_sign_convention():
     assert _solver.orient3d(a, b, c, [0.3, 0.7, 0.0]) == 0
 
 
+def test_nonmanifold_spine_ends_paths():
+    # Three pages sharing a spine (edges with three faces), cut by a horizontal sheet: the spine's
+    # hit has three links, so three paths end there ("nonmanifold") and run to the pages' edges.
+    nz, nr = 11, 5
+    z, rr = np.linspace(-0.5, 0.5, nz), np.linspace(0, 0.5, nr)
+    points, faces = [np.stack([np.zeros(nz), np.zeros(nz), z], 1)], []
+    for page, angle in enumerate([0.1, 2.2, 4.3]):
+        base = nz + page * nz * (nr - 1)
+        direction = np.array([np.cos(angle), np.sin(angle), 0])
+        points.append(np.array([rr[j] * direction + [0, 0, z[i]] for j in range(1, nr) for i in range(nz)]))
+
+        def index(i, j):
+            return i if j == 0 else base + (j - 1) * nz + i
+
+        for j in range(nr - 1):
+            for i in range(nz - 1):
+                faces += [[index(i, j), index(i, j + 1), index(i + 1, j + 1)], [index(i, j), index(i + 1, j + 1), index(i + 1, j)]]
+    xa, fa = np.ascontiguousarray(np.concatenate(points)), np.array(faces, np.int32)
+    xb, fb = plane([-1, -1, 0.013], [2, 0, 0], [0, 2, 0], 9, 9)
+    r = _solver.intersection_analysis(xa, fa, xb, fb)
+    assert r["inconsistent_pairs"] == 0 and r["path_count"] == 3
+    spine_hit = {p["hits"][0] for p in r["paths"]}
+    assert len(spine_hit) == 1
+    for p in r["paths"]:
+        assert p["end_kinds"] == ("nonmanifold", "boundary") and p["end_meshes"] == (-1, 0)
+    assert r["a"]["coloured_vertex_count"] == 0  # no single path separates A (documented)
+
+
 def test_bad_input_is_rejected():
     xa, fa = plane([0, 0, 0], [1, 0, 0], [0, 1, 0], 3, 3)
     bad = fa.copy()
