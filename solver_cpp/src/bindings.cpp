@@ -3,6 +3,7 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include "bindings_gia.h"
 #include "integrator.h"
 
 namespace py = pybind11;
@@ -115,4 +116,5 @@ PYBIND11_MODULE(_solver, m) {
           py::arg("x"));
 
   m.def("hinge_angle", &hinge_angle, py::arg("x0"), py::arg("x1"), py::arg("x2"), py::arg("x3"));
+  bind_gia(m);
 }
