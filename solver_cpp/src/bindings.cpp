@@ -8,6 +8,8 @@
 namespace py = pybind11;
 using namespace weft;
 
+void bind_collision(py::module_& m);  // bindings_collision.cpp
+
 PYBIND11_MODULE(_solver, m) {
   m.doc() = "weft implicit cloth solver (C++ core)";
 
@@ -115,4 +117,5 @@ PYBIND11_MODULE(_solver, m) {
           py::arg("x"));
 
   m.def("hinge_angle", &hinge_angle, py::arg("x0"), py::arg("x1"), py::arg("x2"), py::arg("x3"));
+  bind_collision(m);
 }
