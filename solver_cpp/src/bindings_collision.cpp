@@ -131,15 +131,15 @@ void bind_collision(py::module_& m) {
       "Conservative CCD of edge (a0, a1) against edge (b0, b1), moving linearly over t in [0, 1].\n"
       "start, end: (4, 3) positions of (a0, a1, b0, b1). Returns (hit, toi).";
   m.def("vertex_triangle_ccd", &ccd_single<false>, py::arg("start"), py::arg("end"),
-        py::arg("minimum_separation") = 0.0, py::arg("relative_tolerance") = 1e-6, py::arg("max_boxes") = 100000,
+        py::arg("minimum_separation") = 0.0, py::arg("relative_tolerance") = 1e-6, py::arg("max_boxes") = 20000,
         vt_doc);
   m.def("edge_edge_ccd", &ccd_single<true>, py::arg("start"), py::arg("end"), py::arg("minimum_separation") = 0.0,
-        py::arg("relative_tolerance") = 1e-6, py::arg("max_boxes") = 100000, ee_doc);
+        py::arg("relative_tolerance") = 1e-6, py::arg("max_boxes") = 20000, ee_doc);
   m.def("vertex_triangle_ccd_batch", &ccd_batch<false>, py::arg("start"), py::arg("end"),
-        py::arg("minimum_separation") = 0.0, py::arg("relative_tolerance") = 1e-6, py::arg("max_boxes") = 100000,
+        py::arg("minimum_separation") = 0.0, py::arg("relative_tolerance") = 1e-6, py::arg("max_boxes") = 20000,
         py::arg("threads") = 1, "Batched vertex_triangle_ccd over (N, 4, 3) arrays: (hit, toi, boxes).");
   m.def("edge_edge_ccd_batch", &ccd_batch<true>, py::arg("start"), py::arg("end"), py::arg("minimum_separation") = 0.0,
-        py::arg("relative_tolerance") = 1e-6, py::arg("max_boxes") = 100000, py::arg("threads") = 1,
+        py::arg("relative_tolerance") = 1e-6, py::arg("max_boxes") = 20000, py::arg("threads") = 1,
         "Batched edge_edge_ccd over (N, 4, 3) arrays: (hit, toi, boxes).");
 
   m.def(

@@ -32,11 +32,14 @@ namespace {
 
 struct Box {
   double t0, t1, u0, u1, v0, v1;
+  int depth;
 };
+// Earliest start first; among boxes with the same start, the deepest first (depth-first along
+// a contact curve instead of breadth-first across it).
 struct LaterFirst {
   bool operator()(const Box& a, const Box& b) const {
     if (a.t0 != b.t0) return a.t0 > b.t0;
-    return (a.t1 - a.t0) < (b.t1 - b.t0);  // same start: smaller box first
+    return a.depth < b.depth;
   }
 };
 
@@ -72,7 +75,7 @@ CcdResult run_ccd(const std::array<Vec3, 4>& start, const std::array<Vec3, 4>& e
   const double t_max = std::clamp(options.t_max, 0.0, 1.0);
 
   std::priority_queue<Box, std::vector<Box>, LaterFirst> queue;
-  queue.push({0.0, t_max, 0.0, 1.0, 0.0, 1.0});
+  queue.push({0.0, t_max, 0.0, 1.0, 0.0, 1.0, 0});
   std::array<Vec3, 8> f;
   while (!queue.empty()) {
     const Box box = queue.top();
@@ -108,6 +111,7 @@ CcdResult run_ccd(const std::array<Vec3, 4>& start, const std::array<Vec3, 4>& e
     if (v_width <= kMinimumWidth) spread[2] = -1.0;
     const int axis = static_cast<int>(std::max_element(spread, spread + 3) - spread);
     Box a = box, b = box;
+    a.depth = b.depth = box.depth + 1;
     if (axis == 0) {
       const double m = 0.5 * (box.t0 + box.t1);
       a.t1 = m;

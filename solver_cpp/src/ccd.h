@@ -28,7 +28,7 @@ struct CcdOptions {
   // at least 1e-300); the absolute tolerance is never below four times the error bound.
   double relative_tolerance = 1e-6;
   // Boxes examined before giving up and (conservatively) reporting a hit.
-  int max_boxes = 100000;
+  int max_boxes = 20000;
   // Only look for contacts with t in [0, t_max].
   double t_max = 1.0;
 };
