@@ -73,6 +73,17 @@ py::tuple ccd_batch(const DoubleArray& start, const DoubleArray& end, double min
   return py::make_tuple(hit, toi, boxes);
 }
 
+// std::vector<char> flags cross as lists of bools.
+using Flags = std::vector<char> CollisionSettings::*;
+auto bool_list_getter(Flags member) {
+  return [member](const CollisionSettings& s) { return std::vector<bool>((s.*member).begin(), (s.*member).end()); };
+}
+auto bool_list_setter(Flags member) {
+  return [member](CollisionSettings& s, const std::vector<bool>& flags) {
+    s.*member = std::vector<char>(flags.begin(), flags.end());
+  };
+}
+
 }  // namespace
 
 void bind_collision(py::module_& m) {
@@ -80,9 +91,12 @@ void bind_collision(py::module_& m) {
       .def(py::init<>())
       .def_readwrite("enabled", &CollisionSettings::enabled)
       .def_readwrite("ccd", &CollisionSettings::ccd)
-      .def_readwrite("face_collide", &CollisionSettings::face_collide)
-      .def_readwrite("face_self_collide", &CollisionSettings::face_self_collide)
-      .def_readwrite("body_collide", &CollisionSettings::body_collide)
+      .def_property("face_collide", bool_list_getter(&CollisionSettings::face_collide),
+                    bool_list_setter(&CollisionSettings::face_collide))
+      .def_property("face_self_collide", bool_list_getter(&CollisionSettings::face_self_collide),
+                    bool_list_setter(&CollisionSettings::face_self_collide))
+      .def_property("body_collide", bool_list_getter(&CollisionSettings::body_collide),
+                    bool_list_setter(&CollisionSettings::body_collide))
       .def_readwrite("face_thickness", &CollisionSettings::face_thickness)
       .def_readwrite("face_friction", &CollisionSettings::face_friction)
       .def_readwrite("ccd_iterations", &CollisionSettings::ccd_iterations)

@@ -70,7 +70,8 @@ CcdResult run_ccd(const std::array<Vec3, 4>& start, const std::array<Vec3, 4>& e
   const Vec3 err = ccd_error_bound(start, end);
   double scale = 1e-300;
   for (int i = 0; i < 4; ++i) scale = std::max({scale, start[i].cwiseAbs().maxCoeff(), end[i].cwiseAbs().maxCoeff()});
-  const double tolerance = std::max(options.relative_tolerance * scale, 4.0 * err.maxCoeff());
+  const double tolerance =
+      std::max({options.relative_tolerance * scale, options.absolute_tolerance, 4.0 * err.maxCoeff()});
   const Vec3 widen = err + Vec3::Constant(std::max(options.minimum_separation, 0.0));
   const double t_max = std::clamp(options.t_max, 0.0, 1.0);
 

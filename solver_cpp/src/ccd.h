@@ -27,6 +27,8 @@ struct CcdOptions {
   // Relative to the query's coordinate scale (largest |coordinate| among the 8 input points,
   // at least 1e-300); the absolute tolerance is never below four times the error bound.
   double relative_tolerance = 1e-6;
+  // Absolute floor of the same tolerance, metres (e.g. a fraction of the minimum separation).
+  double absolute_tolerance = 0.0;
   // Boxes examined before giving up and (conservatively) reporting a hit.
   int max_boxes = 20000;
   // Only look for contacts with t in [0, t_max].

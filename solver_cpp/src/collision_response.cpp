@@ -227,6 +227,20 @@ double pair_weights(const std::array<Vec3, 4>& x, bool edge_edge, std::array<dou
   return d;
 }
 
+// Whether the boxes of the pair's two primitives (over one or two configurations) come within
+// `gap` of each other: a cheap filter before distance and CCD tests.
+bool boxes_within(const std::array<Vec3, 4>& s, const std::array<Vec3, 4>& e, bool edge_edge, double gap) {
+  const int split = edge_edge ? 2 : 1;
+  Aabb first, second;
+  for (int i = 0; i < 4; ++i) {
+    Aabb& box = i < split ? first : second;
+    box.expand(s[i]);
+    box.expand(e[i]);
+  }
+  first.inflate(gap);
+  return first.overlaps(second);
+}
+
 Vec3 combine(const std::array<Vec3, 4>& x, const std::array<double, 4>& w) {
   return w[0] * x[0] + w[1] * x[1] + w[2] * x[2] + w[3] * x[3];
 }
@@ -256,6 +270,7 @@ int CollisionSystem::proximity_pass() {
     const double th = pair_thickness(pair);
     std::array<Vec3, 4> s;
     for (int i = 0; i < 4; ++i) s[i] = start_of(pair.point[i], pair.body);
+    if (!boxes_within(s, s, pair.edge_edge, th)) continue;
     std::array<double, 4> w;
     const double d = pair_weights(s, pair.edge_edge, w);
     if (d >= th) continue;
@@ -295,6 +310,9 @@ int CollisionSystem::ccd_pass(bool apply, std::vector<int>* hits) {
     if (spread <= 1e-9 * th) return CcdResult{};
     CcdOptions options;
     options.minimum_separation = kCcdSeparationFraction * th;
+    options.absolute_tolerance = 0.1 * options.minimum_separation;
+    options.max_boxes = 2000;
+    if (!boxes_within(s, e, pair.edge_edge, options.minimum_separation)) return CcdResult{};
     return pair.edge_edge ? edge_edge_ccd(s, e, options) : vertex_triangle_ccd(s, e, options);
   };
 #pragma omp parallel for schedule(dynamic, 64) num_threads(threads_)
