@@ -207,6 +207,7 @@ void CollisionSystem::apply_impulse(const FeaturePair& pair, const std::array<do
     if (p < 0 || inverse_mass_[p] == 0.0) continue;
     v_->row(p) += (inverse_mass_[p] * w[i] / denominator) * delta.transpose();
     x_end_.row(p) = x_->row(p) + h_ * v_->row(p);
+    changed_[p] = 1;
   }
 }
 
@@ -289,13 +290,17 @@ int CollisionSystem::proximity_pass() {
   return count;
 }
 
-int CollisionSystem::ccd_pass(bool apply, std::vector<int>* hits) {
+int CollisionSystem::ccd_pass(bool apply, std::vector<int>* hits, bool incremental) {
   auto start = Clock::now();
   const int count = static_cast<int>(pairs_.size());
+  std::vector<char> dirty(vertex_count_, 0);
+  dirty.swap(changed_);
   std::vector<char> hit(count, 0);
   std::vector<double> toi(count, 1.0);
   auto run = [&](int k) {
     const FeaturePair& pair = pairs_[k];
+    if (incremental && !std::any_of(pair.point.begin(), pair.point.end(), [&](int p) { return p >= 0 && dirty[p]; }))
+      return CcdResult{};
     std::array<Vec3, 4> s, e;
     for (int i = 0; i < 4; ++i) {
       s[i] = start_of(pair.point[i], pair.body);
@@ -322,6 +327,7 @@ int CollisionSystem::ccd_pass(bool apply, std::vector<int>* hits) {
     toi[k] = r.toi;
   }
   frame_.ccd_candidates += count;
+  incremental = false;  // the serial pass re-tests hits with the velocities of the moment
   frame_.ccd_seconds += since(start);
   start = Clock::now();
   int found = 0;
@@ -420,11 +426,12 @@ int CollisionSystem::impact_zones(std::vector<int>& hits) {
       else vz = momentum[r] / mass[r];
       v_->row(i) = vz.transpose();
       x_end_.row(i) = x_->row(i) + h_ * v_->row(i);
+      changed_[i] = 1;
     }
     frame_.response_seconds += since(start);
     collect_pairs();
     hits.clear();
-    ccd_pass(false, &hits);
+    ccd_pass(false, &hits, true);
   }
   frame_.impact_zones += zone_count;
   frame_.unresolved += static_cast<int>(hits.size());
@@ -442,6 +449,7 @@ void CollisionSystem::respond(const Positions& x, Positions& v, double h, const 
     bodies[b].positions_at(alpha0, bodies_[b].start);
     bodies[b].positions_at(alpha1, bodies_[b].end);
   }
+  changed_.assign(vertex_count_, 0);
   collect_pairs();
   proximity_pass();
   if (settings_.ccd) {
@@ -449,11 +457,11 @@ void CollisionSystem::respond(const Positions& x, Positions& v, double h, const 
     for (frame_iteration_ = 0; frame_iteration_ < settings_.ccd_iterations; ++frame_iteration_) {
       collect_pairs();
       ++frame_.iterations;
-      if (ccd_pass(true, nullptr) == 0) break;
+      if (ccd_pass(true, nullptr, frame_iteration_ > 0) == 0) break;
     }
     if (frame_iteration_ == settings_.ccd_iterations) {
       collect_pairs();
-      ccd_pass(false, &hits);
+      ccd_pass(false, &hits, true);
       if (!hits.empty()) impact_zones(hits);
     }
   }

@@ -105,7 +105,9 @@ class CollisionSystem {
   void expand_triangle_pair(int cloth_face, int other_face, int body, std::vector<FeaturePair>& out) const;
   int proximity_pass();
   // CCD over pairs_; with apply, impulses are applied as hits are found (in pair order).
-  int ccd_pass(bool apply, std::vector<int>* hits);
+  // Incremental: only pairs with a cloth vertex whose velocity changed since the last pass (the
+  // others keep their trajectories, so their earlier "no hit" stands).
+  int ccd_pass(bool apply, std::vector<int>* hits, bool incremental);
   void apply_impulse(const FeaturePair& pair, const std::array<double, 4>& w, const Vec3& n, double delta_vn,
                      double friction);
   int impact_zones(std::vector<int>& hits);
@@ -130,6 +132,7 @@ class CollisionSystem {
   Positions x_end_;
   double h_ = 0.0;
   int frame_iteration_ = 0;  // CCD impulse pass within respond()
+  std::vector<char> changed_;  // cloth vertices whose velocity changed since the last CCD pass
   std::vector<FeaturePair> pairs_;
   std::vector<std::pair<int, int>> scratch_pairs_;
   CollisionTelemetry frame_;
