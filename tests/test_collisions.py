@@ -130,3 +130,34 @@ def test_exact_intersection_counter():
     poked = x.copy()
     poked[14, 1] = -0.05
     assert _solver.count_mesh_intersections(poked, f.astype(np.int32), layer, f.astype(np.int32)) > 0
+
+
+def test_collision_telemetry_reaches_the_cache(tmp_path):
+    import h5py
+
+    from weft.runner import ShotRunner
+
+    scene = make_scene(drop_shot("box", n=8, frames=8, substeps=2))
+    summary = ShotRunner(scene, tmp_path / "drop.h5", threads=1).run()
+    assert summary.status == "complete"
+    with h5py.File(tmp_path / "drop.h5", "r") as f:
+        t = f["telemetry"][()]
+    simulated = t[t["substeps"] > 0]
+    assert np.all(simulated["intersections"] == 0)
+    assert np.all(simulated["ccd_candidates"] > 0)
+    parts = sum(simulated[k] for k in ("collision_broad_phase_seconds", "collision_proximity_seconds",
+                                       "collision_ccd_seconds", "collision_response_seconds"))
+    assert np.all(parts <= simulated["collision_seconds"] + 1e-12)
+
+
+def test_ccd_single_and_batch_agree():
+    rng = np.random.default_rng(3)
+    start = rng.normal(size=(200, 4, 3))
+    end = start + rng.normal(scale=0.5, size=(200, 4, 3))
+    for single, batch in ((_solver.vertex_triangle_ccd, _solver.vertex_triangle_ccd_batch),
+                          (_solver.edge_edge_ccd, _solver.edge_edge_ccd_batch)):
+        hit, toi, _ = batch(start, end)
+        for k in range(len(start)):
+            assert single(start[k], end[k]) == (bool(hit[k]), float(toi[k]))
+    with pytest.raises(ValueError):
+        _solver.vertex_triangle_ccd_batch(start[:, :3], end[:, :3])
