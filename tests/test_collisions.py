@@ -161,3 +161,13 @@ def test_ccd_single_and_batch_agree():
             assert single(start[k], end[k]) == (bool(hit[k]), float(toi[k]))
     with pytest.raises(ValueError):
         _solver.vertex_triangle_ccd_batch(start[:, :3], end[:, :3])
+
+
+def test_collision_stage_is_bitwise_reproducible_across_thread_counts():
+    doc = drop_shot("box", n=10, frames=10, substeps=2)
+    results = []
+    for threads in (1, 2):
+        for _, sim, _ in simulate(doc, threads=threads):
+            pass
+        results.append(sim.positions.copy())
+    assert np.array_equal(results[0], results[1])
