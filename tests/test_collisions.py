@@ -171,3 +171,20 @@ def test_collision_stage_is_bitwise_reproducible_across_thread_counts():
             pass
         results.append(sim.positions.copy())
     assert np.array_equal(results[0], results[1])
+
+
+def test_contact_constraints_in_the_solve_keep_the_sheet_outside():
+    doc = drop_shot("sphere", n=12, frames=20, substeps=4)
+    scene = make_scene(doc)
+    setup = build_setup(scene, 2)
+    settings = setup.collision
+    settings.contact_constraints = True
+    setup.collision = settings
+    sim = _solver.Simulation(setup)
+    vertices = np.asarray(doc["bodies"][0]["mesh"]["vertices"])
+    faces = np.asarray(doc["bodies"][0]["mesh"]["faces"])
+    for index in range(1, scene.frame_count):
+        t = sim.advance_frame((index - 1) / 24, 1 / 24, 4)
+        assert t.intersections == 0
+        assert convex_depth(sim.positions, vertices, faces).min() > 0.0
+    assert sim.positions[:, 1].min() < 0.0

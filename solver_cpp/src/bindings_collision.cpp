@@ -101,7 +101,8 @@ void bind_collision(py::module_& m) {
       .def_readwrite("face_friction", &CollisionSettings::face_friction)
       .def_readwrite("ccd_iterations", &CollisionSettings::ccd_iterations)
       .def_readwrite("zone_iterations", &CollisionSettings::zone_iterations)
-      .def_readwrite("count_intersections", &CollisionSettings::count_intersections);
+      .def_readwrite("count_intersections", &CollisionSettings::count_intersections)
+      .def_readwrite("contact_constraints", &CollisionSettings::contact_constraints);
 
   auto setup = py::reinterpret_borrow<py::class_<SimulationSetup>>(m.attr("SimulationSetup"));
   setup.def_readwrite("collision", &SimulationSetup::collision);

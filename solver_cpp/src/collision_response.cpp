@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <numeric>
 #include <stdexcept>
 #include <string>
@@ -438,18 +439,90 @@ int CollisionSystem::impact_zones(std::vector<int>& hits) {
   return zone_count;
 }
 
+void CollisionSystem::body_positions(const std::vector<KinematicBody>& bodies, double alpha0, double alpha1) {
+  for (size_t b = 0; b < bodies_.size(); ++b) {
+    if (!bodies_[b].collide) continue;
+    bodies[b].positions_at(alpha0, bodies_[b].start);
+    bodies[b].positions_at(alpha1, bodies_[b].end);
+  }
+}
+
+void CollisionSystem::constrain_contacts(const Positions& x, const Positions& v, double h,
+                                         const std::vector<KinematicBody>& bodies, double alpha0, double alpha1,
+                                         ConstraintFilter& filter) {
+  solve_contacts_.clear();
+  if (!settings_.contact_constraints || !any_body_) return;
+  const auto start = Clock::now();
+  body_positions(bodies, alpha0, alpha1);
+  triangle_boxes(cloth_faces_, x, x, face_margin_, cloth_boxes_);
+  cloth_tree_.refit(cloth_boxes_);
+  // Closest collidable body face within the thickness, per cloth vertex.
+  std::vector<double> best(vertex_count_, std::numeric_limits<double>::infinity());
+  std::vector<SolveContact> contact(vertex_count_);
+  for (size_t b = 0; b < bodies_.size(); ++b) {
+    BodyState& state = bodies_[b];
+    if (!state.collide) continue;
+    triangle_boxes(state.faces, state.start, state.start, {}, state.boxes);
+    state.tree.refit(state.boxes);
+    scratch_pairs_.clear();
+    cloth_tree_.pairs(state.tree, scratch_pairs_);
+    for (const auto& [cf, bf] : scratch_pairs_) {
+      if (!face_collide_[cf]) continue;
+      const Vec3 a = row3(state.start, state.faces(bf, 0)), bb = row3(state.start, state.faces(bf, 1)),
+                 c = row3(state.start, state.faces(bf, 2));
+      for (int vtx : cloth_own_.face_vertices[cf]) {
+        if (inverse_mass_[vtx] == 0.0) continue;
+        Vec3 bary;
+        const Vec3 p = row3(x, vtx);
+        const double d = point_triangle_distance(p, a, bb, c, bary);
+        if (d >= vertex_thickness_[vtx] || d >= best[vtx] || d <= 1e-12 * vertex_thickness_[vtx]) continue;
+        best[vtx] = d;
+        Vec3 vb = Vec3::Zero();
+        for (int k = 0; k < 3; ++k) {
+          const int bv = state.faces(bf, k);
+          vb += bary[k] * (row3(state.end, bv) - row3(state.start, bv)) / h;
+        }
+        contact[vtx] = {vtx, static_cast<int>(b), (p - (bary[0] * a + bary[1] * bb + bary[2] * c)) / d, vb, 0.0};
+      }
+    }
+  }
+  for (int i = 0; i < vertex_count_; ++i) {
+    if (!std::isfinite(best[i]) || filter.projection[i] != Mat3::Identity()) continue;
+    SolveContact c = contact[i];
+    const double target = kRepulsionRate * (vertex_thickness_[i] - best[i]) / h;
+    const double vn = (row3(v, i) - c.body_velocity).dot(c.normal);
+    if (vn > target) continue;  // leaving: no constraint
+    c.delta_vn = target - vn;
+    filter.constrain_direction(i, c.normal, c.delta_vn);
+    solve_contacts_.push_back(c);
+  }
+  frame_.proximity_pairs += static_cast<int>(solve_contacts_.size());
+  frame_.proximity_seconds += since(start);
+}
+
+void CollisionSystem::contact_friction() {
+  for (const SolveContact& c : solve_contacts_) {
+    const double mu = vertex_friction_[c.vertex];
+    if (mu <= 0.0) continue;
+    const Vec3 v_rel = row3(*v_, c.vertex) - c.body_velocity;
+    const Vec3 v_t = v_rel - c.normal.dot(v_rel) * c.normal;
+    const double vt_norm = v_t.norm();
+    if (vt_norm <= 0.0) continue;
+    const double scale = std::max(0.0, 1.0 - mu * c.delta_vn / vt_norm);
+    v_->row(c.vertex) += ((scale - 1.0) * v_t).transpose();
+    x_end_.row(c.vertex) = x_->row(c.vertex) + h_ * v_->row(c.vertex);
+  }
+}
+
 void CollisionSystem::respond(const Positions& x, Positions& v, double h, const std::vector<KinematicBody>& bodies,
                               double alpha0, double alpha1) {
   x_ = &x;
   v_ = &v;
   h_ = h;
   x_end_ = x + h * v;
-  for (size_t b = 0; b < bodies_.size(); ++b) {
-    if (!bodies_[b].collide) continue;
-    bodies[b].positions_at(alpha0, bodies_[b].start);
-    bodies[b].positions_at(alpha1, bodies_[b].end);
-  }
+  body_positions(bodies, alpha0, alpha1);
   changed_.assign(vertex_count_, 0);
+  contact_friction();
   collect_pairs();
   proximity_pass();
   if (settings_.ccd) {

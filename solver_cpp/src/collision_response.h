@@ -21,6 +21,7 @@
 
 #include "bodies.h"
 #include "broad_phase.h"
+#include "pcg.h"
 #include "proximity.h"
 
 namespace weft {
@@ -36,6 +37,10 @@ struct CollisionSettings {
   int ccd_iterations = 8;               // impulse passes before impact zones
   int zone_iterations = 100;            // impact-zone passes (each grows or merges zones)
   bool count_intersections = true;      // exact intersection count at every frame end
+  // Cloth/body contacts also as prescribed normal velocities in the filtered solve. Off by
+  // default: the simple release rule (a vertex leaving faster than its push-out is not
+  // constrained) made resting contact jitter in the box drop (docs/collisions.md).
+  bool contact_constraints = false;
 };
 
 struct CollisionTelemetry {
@@ -74,6 +79,14 @@ class CollisionSystem {
   // Adjusts v so that x + h v is collision-free. Bodies move from alpha0 to alpha1 of the frame.
   void respond(const Positions& x, Positions& v, double h, const std::vector<KinematicBody>& bodies, double alpha0,
                double alpha1);
+
+  // Before the solve: every free cloth vertex within the thickness of a collidable body face
+  // and not moving away from it gets its normal velocity relative to the body prescribed
+  // (to a small push back out), a constraint of the pre-filtered solve (pcg.h). Friction for
+  // these contacts is applied after the solve with the constraint's velocity change as the
+  // normal impulse.
+  void constrain_contacts(const Positions& x, const Positions& v, double h, const std::vector<KinematicBody>& bodies,
+                          double alpha0, double alpha1, ConstraintFilter& filter);
 
   // Exact count of intersecting triangle pairs (cloth/body for collidable bodies at the end of
   // the frame, cloth/cloth among self-colliding faces).
@@ -133,6 +146,16 @@ class CollisionSystem {
   double h_ = 0.0;
   int frame_iteration_ = 0;  // CCD impulse pass within respond()
   std::vector<char> changed_;  // cloth vertices whose velocity changed since the last CCD pass
+  struct SolveContact {
+    int vertex;
+    int body;
+    Vec3 normal;
+    Vec3 body_velocity;
+    double delta_vn;  // normal velocity change the constraint prescribed
+  };
+  std::vector<SolveContact> solve_contacts_;  // this step's, for friction after the solve
+  void body_positions(const std::vector<KinematicBody>& bodies, double alpha0, double alpha1);
+  void contact_friction();
   std::vector<FeaturePair> pairs_;
   std::vector<std::pair<int, int>> scratch_pairs_;
   CollisionTelemetry frame_;

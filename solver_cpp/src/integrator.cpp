@@ -131,6 +131,8 @@ Simulation::StepTimings Simulation::step(double time, double h, double alpha_end
   assembler_->assemble(elements_, vertex_mass(), v_, h);
   build_filter(h, alpha_end);
   t.build = seconds_since(build_start);
+  if (collisions_)  // cloth/body contacts as prescribed normal velocities in the filtered solve
+    collisions_->constrain_contacts(x_, v_, h, bodies_, step_alpha_start_, alpha_end, filter_);
 
   const auto solve_start = Clock::now();
   const SparseMatrix& a = assembler_->matrix();
