@@ -166,6 +166,14 @@ void CollisionSystem::expand_triangle_pair(int cf, int of, int body, std::vector
     for (const auto& e2 : b.own.face_edges[of]) out.push_back({{e1[0], e1[1], bv(e2[0]), bv(e2[1])}, body, true});
 }
 
+void CollisionSystem::body_triangle_pairs(int body, bool swept) {
+  BodyState& state = bodies_[body];
+  triangle_boxes(state.faces, state.start, swept ? state.end : state.start, {}, state.boxes);
+  state.tree.refit(state.boxes);
+  scratch_pairs_.clear();
+  cloth_tree_.pairs(state.tree, scratch_pairs_);
+}
+
 void CollisionSystem::collect_pairs() {
   const auto start = Clock::now();
   triangle_boxes(cloth_faces_, *x_, x_end_, face_margin_, cloth_boxes_);
@@ -178,12 +186,8 @@ void CollisionSystem::collect_pairs() {
       if (face_self_[a] && face_self_[b]) expand_triangle_pair(a, b, -1, pairs_);
   }
   for (size_t b = 0; b < bodies_.size(); ++b) {
-    BodyState& state = bodies_[b];
-    if (!state.collide) continue;
-    triangle_boxes(state.faces, state.start, state.end, {}, state.boxes);
-    state.tree.refit(state.boxes);
-    scratch_pairs_.clear();
-    cloth_tree_.pairs(state.tree, scratch_pairs_);
+    if (!bodies_[b].collide) continue;
+    body_triangle_pairs(static_cast<int>(b), true);
     for (const auto& [cf, bf] : scratch_pairs_)
       if (face_collide_[cf]) expand_triangle_pair(cf, bf, static_cast<int>(b), pairs_);
   }
@@ -462,10 +466,7 @@ void CollisionSystem::constrain_contacts(const Positions& x, const Positions& v,
   for (size_t b = 0; b < bodies_.size(); ++b) {
     BodyState& state = bodies_[b];
     if (!state.collide) continue;
-    triangle_boxes(state.faces, state.start, state.start, {}, state.boxes);
-    state.tree.refit(state.boxes);
-    scratch_pairs_.clear();
-    cloth_tree_.pairs(state.tree, scratch_pairs_);
+    body_triangle_pairs(static_cast<int>(b), false);
     for (const auto& [cf, bf] : scratch_pairs_) {
       if (!face_collide_[cf]) continue;
       const Vec3 a = row3(state.start, state.faces(bf, 0)), bb = row3(state.start, state.faces(bf, 1)),

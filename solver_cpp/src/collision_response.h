@@ -115,6 +115,9 @@ class CollisionSystem {
 
   // Broad phase over the current x and x + h v; fills pairs_.
   void collect_pairs();
+  // Refit body `body`'s tree (swept over the step, or at its start) and put its overlapping
+  // (cloth face, body face) pairs into scratch_pairs_.
+  void body_triangle_pairs(int body, bool swept);
   void expand_triangle_pair(int cloth_face, int other_face, int body, std::vector<FeaturePair>& out) const;
   int proximity_pass();
   // CCD over pairs_; with apply, impulses are applied as hits are found (in pair order).
