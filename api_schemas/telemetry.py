@@ -22,6 +22,19 @@ TELEMETRY_COLUMNS: list[tuple[str, str, str]] = [
     ("unconverged_substeps", "i4", "substeps whose CG stopped at the iteration cap"),
     ("kinetic_energy", "f8", "kinetic energy at frame end, J"),
     ("potential_energy", "f8", "gravitational plus elastic energy at frame end, J"),
+    # Collisions (weft/docs/collisions.md). collision_seconds is the sum of the four parts below
+    # plus the intersection count at frame end.
+    ("collision_broad_phase_seconds", "f8", "wall seconds refitting trees and collecting feature pairs"),
+    ("collision_proximity_seconds", "f8", "wall seconds in proximity tests and repulsion impulses"),
+    ("collision_ccd_seconds", "f8", "wall seconds in continuous collision detection queries"),
+    ("collision_response_seconds", "f8", "wall seconds in CCD impulses and rigid impact zones"),
+    ("proximity_pairs", "i4", "feature pairs within the thickness that received an impulse, summed over substeps"),
+    ("ccd_candidates", "i4", "feature pairs given to CCD, summed over passes and substeps"),
+    ("ccd_hits", "i4", "CCD hits, summed over passes and substeps"),
+    ("impact_zones", "i4", "rigid impact zones formed, summed over substeps"),
+    ("collision_iterations", "i4", "CCD impulse passes plus impact-zone passes, summed over substeps"),
+    ("unresolved_collisions", "i4", "colliding pairs left when the impact-zone budget ran out"),
+    ("intersections", "i4", "intersecting triangle pairs at frame end (exact; -1: not counted)"),
 ]
 
 
@@ -40,6 +53,17 @@ class FrameTelemetry(BaseModel):
     unconverged_substeps: int
     kinetic_energy: float
     potential_energy: float
+    collision_broad_phase_seconds: float = 0.0
+    collision_proximity_seconds: float = 0.0
+    collision_ccd_seconds: float = 0.0
+    collision_response_seconds: float = 0.0
+    proximity_pairs: int = 0
+    ccd_candidates: int = 0
+    ccd_hits: int = 0
+    impact_zones: int = 0
+    collision_iterations: int = 0
+    unresolved_collisions: int = 0
+    intersections: int = -1
 
 
 assert list(FrameTelemetry.model_fields) == [c[0] for c in TELEMETRY_COLUMNS]

@@ -2,6 +2,13 @@
 
 from __future__ import annotations
 
+import os
+
+# OpenMP worker threads spin-wait between parallel regions; on a shared 2-core machine they
+# steal the core the serial parts need (the collision tests ran ~10x slower). Set before the
+# solver (libgomp) is loaded.
+os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+
 from pathlib import Path
 from typing import Any
 

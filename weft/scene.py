@@ -457,4 +457,65 @@ def build_setup(scene: Scene, threads: int = 1) -> Any:
     solver.cg_max_iterations = shot.solver.cg_max_iterations
     solver.threads = threads
     setup.solver = solver
+    setup.collision = collision_settings(scene)
     return setup
+
+
+def collision_switches(scene: Scene) -> dict[str, Any]:
+    """Resolve the shot's collision switches (None means: decided by what the scene contains).
+
+    - Cloth/body contact (``features.collisions``, per piece ``collide``, per body ``collide``):
+      on when the scene has bodies.
+    - Self-collision (``features.self_collision``, per piece ``self_collide``): on when the
+      scene has bodies or more than one cloth piece (cloth that drapes, folds or layers); off
+      for a single free piece such as a flag, which then pays nothing for it. Cloth/cloth pairs
+      are tested between faces that both have self-collision on, also across pieces.
+    - CCD (``features.ccd``): on whenever any collision is on.
+    A switch set to false at the scene level turns the feature off for every piece.
+    """
+    shot = scene.shot
+    features = shot.features
+    has_bodies = len(shot.bodies) > 0
+    body_default = features.collisions if features.collisions is not None else has_bodies
+    self_default = (
+        features.self_collision if features.self_collision is not None else (has_bodies or len(shot.cloth) > 1)
+    )
+    piece_collide = [
+        bool(body_default and (p.collide if p.collide is not None else True) and features.collisions is not False)
+        for p in shot.cloth
+    ]
+    piece_self = [
+        bool((p.self_collide if p.self_collide is not None else self_default) and features.self_collision is not False)
+        for p in shot.cloth
+    ]
+    body_collide = [bool(b.collide) for b in shot.bodies]
+    any_body = any(piece_collide) and any(body_collide)
+    enabled = any_body or any(piece_self)
+    ccd = enabled and (features.ccd if features.ccd is not None else True)
+    return {
+        "enabled": enabled,
+        "ccd": ccd,
+        "piece_collide": piece_collide,
+        "piece_self_collide": piece_self,
+        "body_collide": body_collide,
+    }
+
+
+def collision_settings(scene: Scene) -> Any:
+    """The C++ CollisionSettings: per-face switches, thickness and friction from the pieces."""
+    from weft import _solver
+
+    switches = collision_switches(scene)
+    settings = _solver.CollisionSettings()
+    settings.enabled = switches["enabled"]
+    if not settings.enabled:
+        return settings
+    settings.ccd = switches["ccd"]
+    counts = [len(p.faces) for p in scene.pieces]
+    materials = [piece.material for piece in scene.shot.cloth]
+    settings.face_collide = np.repeat(switches["piece_collide"], counts).astype(bool).tolist()
+    settings.face_self_collide = np.repeat(switches["piece_self_collide"], counts).astype(bool).tolist()
+    settings.body_collide = switches["body_collide"]
+    settings.face_thickness = np.repeat([m.thickness for m in materials], counts).astype(np.float64)
+    settings.face_friction = np.repeat([m.friction for m in materials], counts).astype(np.float64)
+    return settings

@@ -9,6 +9,8 @@
 namespace py = pybind11;
 using namespace weft;
 
+void bind_collision(py::module_& m);  // bindings_collision.cpp
+
 PYBIND11_MODULE(_solver, m) {
   m.doc() = "weft implicit cloth solver (C++ core)";
 
@@ -117,4 +119,5 @@ PYBIND11_MODULE(_solver, m) {
 
   m.def("hinge_angle", &hinge_angle, py::arg("x0"), py::arg("x1"), py::arg("x2"), py::arg("x3"));
   bind_gia(m);
+  bind_collision(m);
 }

@@ -123,8 +123,8 @@ int coefficient_sign(const double* const rows[4], const std::array<int, 4>& fixe
   // terms by at most ~26 eps times the permanent; 1e-14 leaves a wide margin. A zero permanent
   // means every term is exactly zero (e.g. a coordinate column of zeros: axis-aligned planes).
   if (permanent == 0.0) return 0;
-  if (sum > 1.0e-14 * permanent) return 1;
-  if (-sum > 1.0e-14 * permanent) return -1;
+  if (permanent > 1e-280 && sum > 1.0e-14 * permanent) return 1;
+  if (permanent > 1e-280 && -sum > 1.0e-14 * permanent) return -1;
   ExactSum exact;
   for (int k = 0; k < count; ++k) exact.add_product(terms[k][0], terms[k][1], terms[k][2]);
   return exact.sign();
@@ -150,9 +150,12 @@ int orient3d_exact_sign(const double* a, const double* b, const double* c, const
                            (std::fabs(adx * bdy) + std::fabs(ady * bdx)) * std::fabs(cdz);
   // Shewchuk's bound for this evaluation order is (7 + 56 eps) eps with eps = 2^-53; 1e-15
   // is a little larger (more exact fallbacks, never a wrong sign).
+  // Below 1e-280 the bound could be spoilt by underflow: such inputs take the exact path.
   const double bound = 1.0e-15 * permanent;
-  if (det > bound) return 1;
-  if (-det > bound) return -1;
+  if (permanent > 1e-280) {
+    if (det > bound) return 1;
+    if (-det > bound) return -1;
+  }
   const double* rows[4] = {a, b, c, d};
   return coefficient_sign(rows, {-1, -1, -1, -1});
 }
@@ -183,6 +186,23 @@ bool segment_crosses_triangle(const KeyedPoint& p, const KeyedPoint& q, const Ke
   if (orient3d_sos(a, b, c, p) == orient3d_sos(a, b, c, q)) return false;
   const int s = orient3d_sos(p, q, a, b);
   return orient3d_sos(p, q, b, c) == s && orient3d_sos(p, q, c, a) == s;
+}
+
+int orient3d(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) {
+  return orient3d_exact_sign(a.data(), b.data(), c.data(), d.data());
+}
+
+int orient2d(double ax, double ay, double bx, double by, double cx, double cy) {
+  // det[a - c; b - c] = ax by - ax cy - cx by - ay bx + ay cx + cy bx (the cx cy terms cancel);
+  // each product is split exactly by FMA inside ExactSum.
+  ExactSum exact;
+  exact.add_product(ax, by, 1.0);
+  exact.add_product(-ax, cy, 1.0);
+  exact.add_product(-cx, by, 1.0);
+  exact.add_product(-ay, bx, 1.0);
+  exact.add_product(ay, cx, 1.0);
+  exact.add_product(cy, bx, 1.0);
+  return exact.sign();
 }
 
 }  // namespace weft

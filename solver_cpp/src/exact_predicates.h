@@ -1,4 +1,4 @@
-// Exact geometric predicates for the intersection analysis (GIA).
+// Exact geometric predicates, shared by the intersection analysis (GIA) and collisions.
 //
 // orient3d(a, b, c, d) is the determinant of the 4x4 matrix with rows [p, 1], which equals
 // det[a - d; b - d; c - d]: positive when d lies below the plane of a, b, c seen with a, b, c
@@ -16,6 +16,8 @@
 #pragma once
 
 #include <cstdint>
+
+#include "types.h"
 
 namespace weft {
 
@@ -39,5 +41,12 @@ int orient3d_sos(const KeyedPoint& a, const KeyedPoint& b, const KeyedPoint& c, 
 // three edge-orientation tests. Keys must be pairwise distinct.
 bool segment_crosses_triangle(const KeyedPoint& p, const KeyedPoint& q, const KeyedPoint& a, const KeyedPoint& b,
                               const KeyedPoint& c);
+
+// Exact sign of det[a - d; b - d; c - d] (same convention as orient3d_exact_sign); 0 when the
+// four points are coplanar. No perturbation: callers handle the degenerate case.
+int orient3d(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d);
+
+// Exact sign of det[a - c; b - c] for 2D points: positive when a, b, c turn counter-clockwise.
+int orient2d(double ax, double ay, double bx, double by, double cx, double cy);
 
 }  // namespace weft

@@ -78,6 +78,13 @@ Simulation::Simulation(const SimulationSetup& s)
   }
   dv_.setZero(3 * n);
   filter_.reset(n);
+  if (s.collision.enabled) {
+    std::vector<int> pinned;
+    for (const FixedPin& pin : pins_.fixed) pinned.push_back(pin.vertex);
+    for (const BodyPin& pin : pins_.attached) pinned.push_back(pin.vertex);
+    collisions_ = std::make_unique<CollisionSystem>(mesh_.faces, x_, vertex_mass(), pinned, bodies_, s.collision,
+                                                    settings_.threads);
+  }
 }
 
 void Simulation::set_body_keyframes(int body, const Positions& frame_start, const Positions& frame_end) {
@@ -124,6 +131,8 @@ Simulation::StepTimings Simulation::step(double time, double h, double alpha_end
   assembler_->assemble(elements_, vertex_mass(), v_, h);
   build_filter(h, alpha_end);
   t.build = seconds_since(build_start);
+  if (collisions_)  // cloth/body contacts as prescribed normal velocities in the filtered solve
+    collisions_->constrain_contacts(x_, v_, h, bodies_, step_alpha_start_, alpha_end, filter_);
 
   const auto solve_start = Clock::now();
   const SparseMatrix& a = assembler_->matrix();
@@ -141,8 +150,13 @@ Simulation::StepTimings Simulation::step(double time, double h, double alpha_end
   PcgSettings pcg{settings_.cg_tolerance, settings_.cg_max_iterations};
   const PcgStats stats = prefiltered_pcg(apply, assembler_->diagonal_blocks(), filter_, assembler_->rhs(), dv_, pcg);
   flat(v_) += dv_;
+  if (collisions_) {  // collision stage: makes x + h v collision-free
+    const auto collision_start = Clock::now();
+    collisions_->respond(x_, v_, h, bodies_, step_alpha_start_, alpha_end);
+    t.collision = seconds_since(collision_start);
+  }
   flat(x_) += h * flat(v_);
-  t.solve = seconds_since(solve_start);
+  t.solve = seconds_since(solve_start) - t.collision;
   t.iterations = stats.iterations;
   t.residual = stats.relative_residual;
   t.converged = stats.converged;
@@ -159,7 +173,9 @@ FrameTelemetry Simulation::advance_frame(double frame_start_time, double frame_d
   FrameTelemetry telemetry;
   const auto frame_start = Clock::now();
   const double h = frame_duration / substeps;
+  if (collisions_) collisions_->begin_frame();
   for (int s = 0; s < substeps; ++s) {
+    step_alpha_start_ = static_cast<double>(s) / substeps;
     const StepTimings t = step(frame_start_time + s * h, h, static_cast<double>(s + 1) / substeps);
     telemetry.build_seconds += t.build;
     telemetry.solve_seconds += t.solve;
@@ -168,6 +184,10 @@ FrameTelemetry Simulation::advance_frame(double frame_start_time, double frame_d
     telemetry.unconverged_substeps += t.converged ? 0 : 1;
   }
   telemetry.substeps = substeps;
+  if (collisions_) {
+    telemetry.collision = collisions_->end_frame(x_, bodies_);
+    telemetry.collision_seconds = telemetry.collision.total_seconds();
+  }
   const Energies e = energies();
   telemetry.kinetic_energy = e.kinetic;
   telemetry.potential_energy = e.gravity + e.elastic;

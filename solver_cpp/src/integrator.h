@@ -7,6 +7,7 @@
 #include <memory>
 #include <stdexcept>
 
+#include "collision_response.h"
 #include "constraints.h"
 #include "forces.h"
 #include "linear_system.h"
@@ -34,6 +35,7 @@ struct SimulationSetup {
   std::vector<Faces> body_faces;
   std::vector<Positions> body_positions;  // at the first frame
   SolverSettings solver;
+  CollisionSettings collision;  // collision_response.h; disabled by default
 };
 
 struct FrameTelemetry {
@@ -48,6 +50,7 @@ struct FrameTelemetry {
   int unconverged_substeps = 0;
   double kinetic_energy = 0.0;
   double potential_energy = 0.0;  // gravity + elastic
+  CollisionTelemetry collision;   // split of collision_seconds and counts (collision_response.h)
 };
 
 struct Energies {
@@ -87,6 +90,8 @@ class Simulation {
   const PinSet& pins() const { return pins_; }
   int body_count() const { return static_cast<int>(bodies_.size()); }
   const SolverSettings& settings() const { return settings_; }
+  const CollisionSystem* collision_system() const { return collisions_.get(); }
+  const std::vector<KinematicBody>& bodies() const { return bodies_; }
 
  private:
   struct StepTimings {
@@ -94,6 +99,7 @@ class Simulation {
     int iterations = 0;
     double residual = 0.0;
     bool converged = true;
+    double collision = 0.0;
   };
   StepTimings step(double time, double h, double alpha_end);
   void build_filter(double h, double alpha_end);
@@ -109,6 +115,9 @@ class Simulation {
   VectorX dv_;  // last velocity change, warm start for the next solve
   ElementBuffers elements_;
   ConstraintFilter filter_;
+  // Collision stage (collision_response.h): null when the scene has collisions switched off.
+  std::unique_ptr<CollisionSystem> collisions_;
+  double step_alpha_start_ = 0.0;  // frame fraction at the start of the current substep
 };
 
 }  // namespace weft

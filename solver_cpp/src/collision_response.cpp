@@ -1,0 +1,563 @@
+#include "collision_response.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <numeric>
+#include <stdexcept>
+#include <string>
+
+#include "ccd.h"
+#include "intersection_count.h"
+
+namespace weft {
+
+namespace {
+using Clock = std::chrono::steady_clock;
+double since(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
+
+constexpr double kDefaultThickness = 0.002;
+constexpr double kDefaultFriction = 0.3;
+// Proximity: a pair closer than the thickness gets a normal velocity of at least this fraction
+// of the missing separation per step (a stiff, damped repulsion, Bridson et al. 2002).
+constexpr double kRepulsionRate = 0.1;
+// CCD reports pairs that come closer than this fraction of the thickness ...
+constexpr double kCcdSeparationFraction = 0.05;
+// ... and its impulses aim for this separation at the end of the step.
+constexpr double kTargetSeparationFraction = 0.1;
+
+struct UnionFind {
+  std::vector<int> parent;
+  explicit UnionFind(int n) : parent(n) { std::iota(parent.begin(), parent.end(), 0); }
+  int find(int i) {
+    while (parent[i] != i) i = parent[i] = parent[parent[i]];
+    return i;
+  }
+  void unite(int a, int b) {
+    a = find(a);
+    b = find(b);
+    if (a != b) parent[std::max(a, b)] = std::min(a, b);
+  }
+};
+
+bool face_has(const Faces& faces, int f, int v) { return faces(f, 0) == v || faces(f, 1) == v || faces(f, 2) == v; }
+
+}  // namespace
+
+void CollisionTelemetry::add(const CollisionTelemetry& o) {
+  broad_phase_seconds += o.broad_phase_seconds;
+  proximity_seconds += o.proximity_seconds;
+  ccd_seconds += o.ccd_seconds;
+  response_seconds += o.response_seconds;
+  intersection_seconds += o.intersection_seconds;
+  proximity_pairs += o.proximity_pairs;
+  ccd_candidates += o.ccd_candidates;
+  ccd_hits += o.ccd_hits;
+  impact_zones += o.impact_zones;
+  iterations += o.iterations;
+  unresolved += o.unresolved;
+}
+
+CollisionSystem::CollisionSystem(const Faces& cloth_faces, const Positions& x, const std::vector<double>& vertex_mass,
+                                 const std::vector<int>& pinned_vertices, const std::vector<KinematicBody>& bodies,
+                                 CollisionSettings settings, int threads)
+    : settings_(std::move(settings)), cloth_faces_(cloth_faces), vertex_count_(static_cast<int>(x.rows())),
+      threads_(std::max(threads, 1)) {
+  const int face_count = static_cast<int>(cloth_faces_.rows());
+  auto check_size = [face_count](size_t size, const char* name) {
+    if (size != 0 && size != static_cast<size_t>(face_count))
+      throw std::invalid_argument(std::string("collision.") + name + " has " + std::to_string(size) +
+                                  " entries, expected one per face (" + std::to_string(face_count) + ")");
+  };
+  check_size(settings_.face_collide.size(), "face_collide");
+  check_size(settings_.face_self_collide.size(), "face_self_collide");
+  check_size(settings_.face_thickness.size(), "face_thickness");
+  check_size(settings_.face_friction.size(), "face_friction");
+  if (!settings_.body_collide.empty() && settings_.body_collide.size() != bodies.size())
+    throw std::invalid_argument("collision.body_collide must have one entry per body");
+
+  inverse_mass_.resize(vertex_count_);
+  for (int i = 0; i < vertex_count_; ++i) inverse_mass_[i] = 1.0 / vertex_mass[i];
+  for (int p : pinned_vertices) inverse_mass_[p] = 0.0;
+  face_collide_ = settings_.face_collide.empty() ? std::vector<char>(face_count, 1) : settings_.face_collide;
+  face_self_ = settings_.face_self_collide.empty() ? std::vector<char>(face_count, 0) : settings_.face_self_collide;
+  any_self_ = std::any_of(face_self_.begin(), face_self_.end(), [](char c) { return c != 0; });
+
+  vertex_thickness_.assign(vertex_count_, 0.0);
+  vertex_friction_.assign(vertex_count_, 0.0);
+  face_margin_.assign(face_count, 0.0);
+  for (int f = 0; f < face_count; ++f) {
+    const double th = settings_.face_thickness.size() ? settings_.face_thickness[f] : kDefaultThickness;
+    const double mu = settings_.face_friction.size() ? settings_.face_friction[f] : kDefaultFriction;
+    if (!(th > 0.0)) throw std::invalid_argument("collision thickness must be positive");
+    for (int c = 0; c < 3; ++c) {
+      vertex_thickness_[cloth_faces_(f, c)] = std::max(vertex_thickness_[cloth_faces_(f, c)], th);
+      vertex_friction_[cloth_faces_(f, c)] = std::max(vertex_friction_[cloth_faces_(f, c)], mu);
+    }
+  }
+  for (int f = 0; f < face_count; ++f)
+    for (int c = 0; c < 3; ++c) face_margin_[f] = std::max(face_margin_[f], vertex_thickness_[cloth_faces_(f, c)]);
+  default_thickness_ = *std::max_element(vertex_thickness_.begin(), vertex_thickness_.end());
+
+  cloth_own_ = assign_features(cloth_faces_, vertex_count_);
+  triangle_boxes(cloth_faces_, x, x, face_margin_, cloth_boxes_);
+  cloth_tree_.build(cloth_boxes_);
+
+  const bool cloth_collides = std::any_of(face_collide_.begin(), face_collide_.end(), [](char c) { return c != 0; });
+  bodies_.resize(bodies.size());
+  for (size_t b = 0; b < bodies.size(); ++b) {
+    BodyState& state = bodies_[b];
+    state.collide = cloth_collides && (settings_.body_collide.empty() || settings_.body_collide[b]);
+    if (!state.collide) continue;
+    any_body_ = true;
+    state.faces = bodies[b].faces();
+    state.own = assign_features(state.faces, bodies[b].vertex_count());
+    triangle_boxes(state.faces, bodies[b].frame_start(), bodies[b].frame_start(), {}, state.boxes);
+    state.tree.build(state.boxes);
+  }
+}
+
+Vec3 CollisionSystem::start_of(int p, int body) const {
+  return p >= 0 ? row3(*x_, p) : row3(bodies_[body].start, -1 - p);
+}
+Vec3 CollisionSystem::end_of(int p, int body) const {
+  return p >= 0 ? row3(x_end_, p) : row3(bodies_[body].end, -1 - p);
+}
+Vec3 CollisionSystem::velocity_of(int p, int body) const {
+  return p >= 0 ? row3(*v_, p) : Vec3((row3(bodies_[body].end, -1 - p) - row3(bodies_[body].start, -1 - p)) / h_);
+}
+
+double CollisionSystem::pair_thickness(const FeaturePair& pair) const {
+  double th = 0.0;
+  for (int p : pair.point)
+    if (p >= 0) th = std::max(th, vertex_thickness_[p]);
+  return th > 0.0 ? th : default_thickness_;
+}
+
+double CollisionSystem::pair_friction(const FeaturePair& pair) const {
+  double mu = 0.0;
+  for (int p : pair.point)
+    if (p >= 0) mu = std::max(mu, vertex_friction_[p]);
+  return mu;
+}
+
+void CollisionSystem::expand_triangle_pair(int cf, int of, int body, std::vector<FeaturePair>& out) const {
+  if (body < 0) {
+    for (int v : cloth_own_.face_vertices[cf])
+      if (!face_has(cloth_faces_, of, v))
+        out.push_back({{v, cloth_faces_(of, 0), cloth_faces_(of, 1), cloth_faces_(of, 2)}, -1, false});
+    for (int v : cloth_own_.face_vertices[of])
+      if (!face_has(cloth_faces_, cf, v))
+        out.push_back({{v, cloth_faces_(cf, 0), cloth_faces_(cf, 1), cloth_faces_(cf, 2)}, -1, false});
+    for (const auto& e1 : cloth_own_.face_edges[cf])
+      for (const auto& e2 : cloth_own_.face_edges[of])
+        if (e1[0] != e2[0] && e1[0] != e2[1] && e1[1] != e2[0] && e1[1] != e2[1])
+          out.push_back({{e1[0], e1[1], e2[0], e2[1]}, -1, true});
+    return;
+  }
+  const BodyState& b = bodies_[body];
+  auto bv = [](int k) { return -1 - k; };
+  for (int v : cloth_own_.face_vertices[cf])
+    out.push_back({{v, bv(b.faces(of, 0)), bv(b.faces(of, 1)), bv(b.faces(of, 2))}, body, false});
+  for (int k : b.own.face_vertices[of])
+    out.push_back({{bv(k), cloth_faces_(cf, 0), cloth_faces_(cf, 1), cloth_faces_(cf, 2)}, body, false});
+  for (const auto& e1 : cloth_own_.face_edges[cf])
+    for (const auto& e2 : b.own.face_edges[of]) out.push_back({{e1[0], e1[1], bv(e2[0]), bv(e2[1])}, body, true});
+}
+
+void CollisionSystem::body_triangle_pairs(int body, bool swept) {
+  BodyState& state = bodies_[body];
+  triangle_boxes(state.faces, state.start, swept ? state.end : state.start, {}, state.boxes);
+  state.tree.refit(state.boxes);
+  scratch_pairs_.clear();
+  cloth_tree_.pairs(state.tree, scratch_pairs_);
+}
+
+void CollisionSystem::collect_pairs() {
+  const auto start = Clock::now();
+  triangle_boxes(cloth_faces_, *x_, x_end_, face_margin_, cloth_boxes_);
+  cloth_tree_.refit(cloth_boxes_);
+  pairs_.clear();
+  if (any_self_) {
+    scratch_pairs_.clear();
+    cloth_tree_.self_pairs(scratch_pairs_);
+    for (const auto& [a, b] : scratch_pairs_)
+      if (face_self_[a] && face_self_[b]) expand_triangle_pair(a, b, -1, pairs_);
+  }
+  for (size_t b = 0; b < bodies_.size(); ++b) {
+    if (!bodies_[b].collide) continue;
+    body_triangle_pairs(static_cast<int>(b), true);
+    for (const auto& [cf, bf] : scratch_pairs_)
+      if (face_collide_[cf]) expand_triangle_pair(cf, bf, static_cast<int>(b), pairs_);
+  }
+  frame_.broad_phase_seconds += since(start);
+}
+
+void CollisionSystem::apply_impulse(const FeaturePair& pair, const std::array<double, 4>& w, const Vec3& n,
+                                    double delta_vn, double friction) {
+  double denominator = 0.0;
+  Vec3 v_rel = Vec3::Zero();
+  for (int i = 0; i < 4; ++i) {
+    denominator += w[i] * w[i] * inverse_mass_of(pair.point[i]);
+    v_rel += w[i] * velocity_of(pair.point[i], pair.body);
+  }
+  if (!(denominator > 0.0)) return;
+  const Vec3 v_t = v_rel - n.dot(v_rel) * n;
+  const double vt_norm = v_t.norm();
+  Vec3 delta = delta_vn * n;
+  if (friction > 0.0 && vt_norm > 0.0) delta += (std::max(0.0, 1.0 - friction * delta_vn / vt_norm) - 1.0) * v_t;
+  for (int i = 0; i < 4; ++i) {
+    const int p = pair.point[i];
+    if (p < 0 || inverse_mass_[p] == 0.0) continue;
+    v_->row(p) += (inverse_mass_[p] * w[i] / denominator) * delta.transpose();
+    x_end_.row(p) = x_->row(p) + h_ * v_->row(p);
+    changed_[p] = 1;
+  }
+}
+
+namespace {
+
+// Closest points of a pair in one configuration: weights w (sum w_i x_i is the gap vector from
+// the second primitive to the first) and the distance.
+double pair_weights(const std::array<Vec3, 4>& x, bool edge_edge, std::array<double, 4>& w) {
+  if (edge_edge) {
+    double s, t;
+    const double d = segment_segment_distance(x[0], x[1], x[2], x[3], s, t);
+    w = {1.0 - s, s, -(1.0 - t), -t};
+    return d;
+  }
+  Vec3 bary;
+  const double d = point_triangle_distance(x[0], x[1], x[2], x[3], bary);
+  w = {1.0, -bary[0], -bary[1], -bary[2]};
+  return d;
+}
+
+// Whether the boxes of the pair's two primitives (over one or two configurations) come within
+// `gap` of each other: a cheap filter before distance and CCD tests.
+bool boxes_within(const std::array<Vec3, 4>& s, const std::array<Vec3, 4>& e, bool edge_edge, double gap) {
+  const int split = edge_edge ? 2 : 1;
+  Aabb first, second;
+  for (int i = 0; i < 4; ++i) {
+    Aabb& box = i < split ? first : second;
+    box.expand(s[i]);
+    box.expand(e[i]);
+  }
+  first.inflate(gap);
+  return first.overlaps(second);
+}
+
+Vec3 combine(const std::array<Vec3, 4>& x, const std::array<double, 4>& w) {
+  return w[0] * x[0] + w[1] * x[1] + w[2] * x[2] + w[3] * x[3];
+}
+
+// A contact normal pointing from the second primitive to the first: the gap direction when the
+// gap is resolvable, else the geometric normal oriented by `side` (a vector known to point to
+// the first primitive's side), else -side.
+Vec3 contact_normal(const std::array<Vec3, 4>& x, bool edge_edge, const Vec3& gap, double distance, double scale,
+                    const Vec3& side) {
+  if (distance > 1e-9 * scale) return gap / distance;
+  Vec3 n = edge_edge ? Vec3((x[1] - x[0]).cross(x[3] - x[2])) : Vec3((x[2] - x[1]).cross(x[3] - x[1]));
+  const double norm = n.norm();
+  if (norm > 0.0) {
+    n /= norm;
+    return n.dot(side) < 0.0 ? Vec3(-n) : n;
+  }
+  const double side_norm = side.norm();
+  return side_norm > 0.0 ? Vec3(side / side_norm) : Vec3(0, 0, 1);
+}
+
+}  // namespace
+
+int CollisionSystem::proximity_pass() {
+  const auto start = Clock::now();
+  int count = 0;
+  for (const FeaturePair& pair : pairs_) {
+    const double th = pair_thickness(pair);
+    std::array<Vec3, 4> s;
+    for (int i = 0; i < 4; ++i) s[i] = start_of(pair.point[i], pair.body);
+    if (!boxes_within(s, s, pair.edge_edge, th)) continue;
+    std::array<double, 4> w;
+    const double d = pair_weights(s, pair.edge_edge, w);
+    if (d >= th) continue;
+    Vec3 v_rel = Vec3::Zero();
+    for (int i = 0; i < 4; ++i) v_rel += w[i] * velocity_of(pair.point[i], pair.body);
+    const Vec3 n = contact_normal(s, pair.edge_edge, combine(s, w), d, th, -v_rel);
+    const double vn = n.dot(v_rel);
+    const double target = kRepulsionRate * (th - d) / h_;
+    if (vn < target) {
+      apply_impulse(pair, w, n, target - vn, pair_friction(pair));
+      ++count;
+    }
+  }
+  frame_.proximity_pairs += count;
+  frame_.proximity_seconds += since(start);
+  return count;
+}
+
+int CollisionSystem::ccd_pass(bool apply, std::vector<int>* hits, bool incremental) {
+  auto start = Clock::now();
+  const int count = static_cast<int>(pairs_.size());
+  std::vector<char> dirty(vertex_count_, 0);
+  dirty.swap(changed_);
+  std::vector<char> hit(count, 0);
+  std::vector<double> toi(count, 1.0);
+  auto run = [&](int k) {
+    const FeaturePair& pair = pairs_[k];
+    if (incremental && !std::any_of(pair.point.begin(), pair.point.end(), [&](int p) { return p >= 0 && dirty[p]; }))
+      return CcdResult{};
+    std::array<Vec3, 4> s, e;
+    for (int i = 0; i < 4; ++i) {
+      s[i] = start_of(pair.point[i], pair.body);
+      e[i] = end_of(pair.point[i], pair.body);
+    }
+    // Pairs whose points all move by the same displacement keep their shape: nothing new can
+    // happen (this is what makes rigid impact zones final).
+    const Vec3 d0 = e[0] - s[0];
+    double spread = 0.0;
+    for (int i = 1; i < 4; ++i) spread = std::max(spread, ((e[i] - s[i]) - d0).cwiseAbs().maxCoeff());
+    const double th = pair_thickness(pair);
+    if (spread <= 1e-9 * th) return CcdResult{};
+    CcdOptions options;
+    options.minimum_separation = kCcdSeparationFraction * th;
+    options.absolute_tolerance = 0.1 * options.minimum_separation;
+    options.max_boxes = 2000;
+    if (!boxes_within(s, e, pair.edge_edge, options.minimum_separation)) return CcdResult{};
+    return pair.edge_edge ? edge_edge_ccd(s, e, options) : vertex_triangle_ccd(s, e, options);
+  };
+#pragma omp parallel for schedule(dynamic, 64) num_threads(threads_)
+  for (int k = 0; k < count; ++k) {
+    const CcdResult r = run(k);
+    hit[k] = r.hit;
+    toi[k] = r.toi;
+  }
+  frame_.ccd_candidates += count;
+  incremental = false;  // the serial pass re-tests hits with the velocities of the moment
+  frame_.ccd_seconds += since(start);
+  start = Clock::now();
+  int found = 0;
+  for (int k = 0; k < count; ++k) {
+    if (!hit[k]) continue;
+    const FeaturePair& pair = pairs_[k];
+    double t = toi[k];
+    if (apply && found > 0) {  // earlier impulses of this pass may have changed the pair
+      const CcdResult r = run(k);
+      if (!r.hit) continue;
+      t = r.toi;
+    }
+    ++found;
+    if (hits) hits->push_back(k);
+    if (!apply) continue;
+    const double th = pair_thickness(pair);
+    std::array<Vec3, 4> s, x_toi;
+    for (int i = 0; i < 4; ++i) {
+      s[i] = start_of(pair.point[i], pair.body);
+      x_toi[i] = s[i] + t * (end_of(pair.point[i], pair.body) - s[i]);
+    }
+    std::array<double, 4> w;
+    const double d = pair_weights(x_toi, pair.edge_edge, w);
+    const Vec3 g0 = combine(s, w);
+    Vec3 v_rel = Vec3::Zero();
+    for (int i = 0; i < 4; ++i) v_rel += w[i] * velocity_of(pair.point[i], pair.body);
+    const Vec3 side = g0.squaredNorm() > 0.0 ? g0 : Vec3(-v_rel);
+    const Vec3 n = contact_normal(x_toi, pair.edge_edge, combine(x_toi, w), d, th, side);
+    const double vn = n.dot(v_rel);
+    double target = (kTargetSeparationFraction * th - n.dot(g0)) / h_;
+    if (frame_iteration_ >= 2) target = std::max(target, 0.0);  // plain inelastic after two passes
+    if (vn < target) apply_impulse(pair, w, n, target - vn, pair_friction(pair));
+  }
+  frame_.ccd_hits += found;
+  frame_.response_seconds += since(start);
+  return found;
+}
+
+int CollisionSystem::impact_zones(std::vector<int>& hits) {
+  UnionFind zones(vertex_count_);
+  std::vector<char> in_zone(vertex_count_, 0);
+  // Velocity of a body the zone touches, per cloth vertex that touched it (sum, count).
+  std::vector<Vec3> body_velocity(vertex_count_, Vec3::Zero());
+  std::vector<int> body_contacts(vertex_count_, 0);
+  int zone_count = 0;
+  for (int iteration = 0; iteration < settings_.zone_iterations && !hits.empty(); ++iteration) {
+    const auto start = Clock::now();
+    ++frame_.iterations;
+    for (int k : hits) {
+      const FeaturePair& pair = pairs_[k];
+      int first = -1;
+      Vec3 body_v = Vec3::Zero();
+      int body_points = 0;
+      for (int p : pair.point) {
+        if (p < 0) {
+          body_v += velocity_of(p, pair.body);
+          ++body_points;
+          continue;
+        }
+        in_zone[p] = 1;
+        if (first < 0) first = p; else zones.unite(first, p);
+      }
+      if (body_points > 0 && first >= 0) {
+        body_velocity[first] += body_v / body_points;
+        body_contacts[first] += 1;
+      }
+    }
+    // Zone velocities: pinned vertices first, then touched bodies, else momentum-preserving.
+    std::vector<Vec3> momentum(vertex_count_, Vec3::Zero()), pinned_v(vertex_count_, Vec3::Zero()),
+        touched_v(vertex_count_, Vec3::Zero());
+    std::vector<double> mass(vertex_count_, 0.0);
+    std::vector<int> pinned_count(vertex_count_, 0), touched_count(vertex_count_, 0);
+    for (int i = 0; i < vertex_count_; ++i) {
+      if (!in_zone[i]) continue;
+      const int r = zones.find(i);
+      const Vec3 vi = row3(*v_, i);
+      if (inverse_mass_[i] == 0.0) {
+        pinned_v[r] += vi;
+        ++pinned_count[r];
+      } else {
+        mass[r] += 1.0 / inverse_mass_[i];
+        momentum[r] += vi / inverse_mass_[i];
+      }
+      touched_v[r] += body_velocity[i];
+      touched_count[r] += body_contacts[i];
+    }
+    zone_count = 0;
+    for (int i = 0; i < vertex_count_; ++i)
+      if (in_zone[i] && zones.find(i) == i) ++zone_count;
+    for (int i = 0; i < vertex_count_; ++i) {
+      if (!in_zone[i] || inverse_mass_[i] == 0.0) continue;
+      const int r = zones.find(i);
+      Vec3 vz;
+      if (pinned_count[r] > 0) vz = pinned_v[r] / pinned_count[r];
+      else if (touched_count[r] > 0) vz = touched_v[r] / touched_count[r];
+      else vz = momentum[r] / mass[r];
+      v_->row(i) = vz.transpose();
+      x_end_.row(i) = x_->row(i) + h_ * v_->row(i);
+      changed_[i] = 1;
+    }
+    frame_.response_seconds += since(start);
+    collect_pairs();
+    hits.clear();
+    ccd_pass(false, &hits, true);
+  }
+  frame_.impact_zones += zone_count;
+  frame_.unresolved += static_cast<int>(hits.size());
+  return zone_count;
+}
+
+void CollisionSystem::body_positions(const std::vector<KinematicBody>& bodies, double alpha0, double alpha1) {
+  for (size_t b = 0; b < bodies_.size(); ++b) {
+    if (!bodies_[b].collide) continue;
+    bodies[b].positions_at(alpha0, bodies_[b].start);
+    bodies[b].positions_at(alpha1, bodies_[b].end);
+  }
+}
+
+void CollisionSystem::constrain_contacts(const Positions& x, const Positions& v, double h,
+                                         const std::vector<KinematicBody>& bodies, double alpha0, double alpha1,
+                                         ConstraintFilter& filter) {
+  solve_contacts_.clear();
+  if (!settings_.contact_constraints || !any_body_) return;
+  const auto start = Clock::now();
+  body_positions(bodies, alpha0, alpha1);
+  triangle_boxes(cloth_faces_, x, x, face_margin_, cloth_boxes_);
+  cloth_tree_.refit(cloth_boxes_);
+  // Closest collidable body face within the thickness, per cloth vertex.
+  std::vector<double> best(vertex_count_, std::numeric_limits<double>::infinity());
+  std::vector<SolveContact> contact(vertex_count_);
+  for (size_t b = 0; b < bodies_.size(); ++b) {
+    BodyState& state = bodies_[b];
+    if (!state.collide) continue;
+    body_triangle_pairs(static_cast<int>(b), false);
+    for (const auto& [cf, bf] : scratch_pairs_) {
+      if (!face_collide_[cf]) continue;
+      const Vec3 a = row3(state.start, state.faces(bf, 0)), bb = row3(state.start, state.faces(bf, 1)),
+                 c = row3(state.start, state.faces(bf, 2));
+      for (int vtx : cloth_own_.face_vertices[cf]) {
+        if (inverse_mass_[vtx] == 0.0) continue;
+        Vec3 bary;
+        const Vec3 p = row3(x, vtx);
+        const double d = point_triangle_distance(p, a, bb, c, bary);
+        if (d >= vertex_thickness_[vtx] || d >= best[vtx] || d <= 1e-12 * vertex_thickness_[vtx]) continue;
+        best[vtx] = d;
+        Vec3 vb = Vec3::Zero();
+        for (int k = 0; k < 3; ++k) {
+          const int bv = state.faces(bf, k);
+          vb += bary[k] * (row3(state.end, bv) - row3(state.start, bv)) / h;
+        }
+        contact[vtx] = {vtx, static_cast<int>(b), (p - (bary[0] * a + bary[1] * bb + bary[2] * c)) / d, vb, 0.0};
+      }
+    }
+  }
+  for (int i = 0; i < vertex_count_; ++i) {
+    if (!std::isfinite(best[i]) || filter.projection[i] != Mat3::Identity()) continue;
+    SolveContact c = contact[i];
+    const double target = kRepulsionRate * (vertex_thickness_[i] - best[i]) / h;
+    const double vn = (row3(v, i) - c.body_velocity).dot(c.normal);
+    if (vn > target) continue;  // leaving: no constraint
+    c.delta_vn = target - vn;
+    filter.constrain_direction(i, c.normal, c.delta_vn);
+    solve_contacts_.push_back(c);
+  }
+  frame_.proximity_pairs += static_cast<int>(solve_contacts_.size());
+  frame_.proximity_seconds += since(start);
+}
+
+void CollisionSystem::contact_friction() {
+  for (const SolveContact& c : solve_contacts_) {
+    const double mu = vertex_friction_[c.vertex];
+    if (mu <= 0.0) continue;
+    const Vec3 v_rel = row3(*v_, c.vertex) - c.body_velocity;
+    const Vec3 v_t = v_rel - c.normal.dot(v_rel) * c.normal;
+    const double vt_norm = v_t.norm();
+    if (vt_norm <= 0.0) continue;
+    const double scale = std::max(0.0, 1.0 - mu * c.delta_vn / vt_norm);
+    v_->row(c.vertex) += ((scale - 1.0) * v_t).transpose();
+    x_end_.row(c.vertex) = x_->row(c.vertex) + h_ * v_->row(c.vertex);
+  }
+}
+
+void CollisionSystem::respond(const Positions& x, Positions& v, double h, const std::vector<KinematicBody>& bodies,
+                              double alpha0, double alpha1) {
+  x_ = &x;
+  v_ = &v;
+  h_ = h;
+  x_end_ = x + h * v;
+  body_positions(bodies, alpha0, alpha1);
+  changed_.assign(vertex_count_, 0);
+  contact_friction();
+  collect_pairs();
+  proximity_pass();
+  if (settings_.ccd) {
+    std::vector<int> hits;
+    for (frame_iteration_ = 0; frame_iteration_ < settings_.ccd_iterations; ++frame_iteration_) {
+      collect_pairs();
+      ++frame_.iterations;
+      if (ccd_pass(true, nullptr, frame_iteration_ > 0) == 0) break;
+    }
+    if (frame_iteration_ == settings_.ccd_iterations) {
+      collect_pairs();
+      ccd_pass(false, &hits, true);
+      if (!hits.empty()) impact_zones(hits);
+    }
+  }
+  x_ = nullptr;
+  v_ = nullptr;
+}
+
+int CollisionSystem::count_intersections(const Positions& x, const std::vector<KinematicBody>& bodies) const {
+  int total = 0;
+  if (any_self_) total += count_self_intersections(x, cloth_faces_, face_self_);
+  for (size_t b = 0; b < bodies_.size(); ++b)
+    if (bodies_[b].collide) total += weft::count_intersections(x, cloth_faces_, bodies[b].frame_end(), bodies_[b].faces, face_collide_);
+  return total;
+}
+
+CollisionTelemetry CollisionSystem::end_frame(const Positions& x, const std::vector<KinematicBody>& bodies) {
+  if (settings_.count_intersections) {
+    const auto start = Clock::now();
+    frame_.intersections = count_intersections(x, bodies);
+    frame_.intersection_seconds += since(start);
+  }
+  return frame_;
+}
+
+}  // namespace weft

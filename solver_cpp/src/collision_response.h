@@ -1,0 +1,167 @@
+// The collision stage of a step (Bridson, Fedkiw & Anderson 2002, with the fail-safe of
+// Provot 1995 / Harmon et al. 2008): after the velocity solve, with x the start-of-step
+// positions and v the new velocities (so the step moves x to x + h v),
+//   1. broad phase: refit the AABB trees (swept boxes widened by the thickness), collect
+//      triangle pairs cloth/body and cloth/cloth, and expand them into vertex-triangle and
+//      edge-edge feature pairs, each pair once (representative triangles);
+//   2. proximity: pairs closer than the thickness at the start get repulsion impulses towards
+//      a separation of one thickness, with Coulomb friction;
+//   3. CCD: pairs that touch during the step (conservative CCD, ccd.h) get inelastic impulses
+//      that leave them a small separation at the end; repeated until no pair collides or the
+//      iteration budget is spent;
+//   4. rigid impact zones: remaining colliding vertices are merged into zones that move
+//      rigidly (translation preserving the zone's momentum, or the velocity of a kinematic
+//      body or pinned vertex they touch), re-detected until collision-free. Zones only grow,
+//      so this always ends.
+// Kinematic bodies and pinned vertices have infinite mass.
+#pragma once
+
+#include <memory>
+#include <vector>
+
+#include "bodies.h"
+#include "broad_phase.h"
+#include "pcg.h"
+#include "proximity.h"
+
+namespace weft {
+
+struct CollisionSettings {
+  bool enabled = false;                 // master switch: no collision stage at all when false
+  bool ccd = true;                      // continuous detection and the fail-safe
+  std::vector<char> face_collide;       // per cloth face: collides with bodies (empty: all)
+  std::vector<char> face_self_collide;  // per cloth face: cloth/cloth (empty: none)
+  std::vector<char> body_collide;       // per body (empty: all)
+  VectorX face_thickness;               // per cloth face, m (empty: 0.002)
+  VectorX face_friction;                // per cloth face (empty: 0.3)
+  int ccd_iterations = 8;               // impulse passes before impact zones
+  int zone_iterations = 100;            // impact-zone passes (each grows or merges zones)
+  bool count_intersections = true;      // exact intersection count at every frame end
+  // Cloth/body contacts also as prescribed normal velocities in the filtered solve. Off by
+  // default: the simple release rule (a vertex leaving faster than its push-out is not
+  // constrained) made resting contact jitter in the box drop (docs/collisions.md).
+  bool contact_constraints = false;
+};
+
+struct CollisionTelemetry {
+  double broad_phase_seconds = 0.0;
+  double proximity_seconds = 0.0;
+  double ccd_seconds = 0.0;
+  double response_seconds = 0.0;
+  double intersection_seconds = 0.0;  // counting at frame end
+  int proximity_pairs = 0;
+  int ccd_candidates = 0;  // feature pairs given to CCD
+  int ccd_hits = 0;
+  int impact_zones = 0;
+  int iterations = 0;  // CCD impulse passes plus impact-zone passes
+  int unresolved = 0;  // colliding pairs left when the zone budget ran out
+  int intersections = -1;  // triangle pairs intersecting at frame end (-1: not counted)
+  double total_seconds() const {
+    return broad_phase_seconds + proximity_seconds + ccd_seconds + response_seconds + intersection_seconds;
+  }
+  void add(const CollisionTelemetry& o);
+};
+
+// A feature pair: point indices >= 0 are cloth vertices, < 0 are body vertices -(1 + k) of
+// body `body`. Vertex-triangle: (p, a, b, c); edge-edge: (a0, a1, b0, b1).
+struct FeaturePair {
+  std::array<int, 4> point;
+  int body = -1;
+  bool edge_edge = false;
+};
+
+class CollisionSystem {
+ public:
+  CollisionSystem(const Faces& cloth_faces, const Positions& x, const std::vector<double>& vertex_mass,
+                  const std::vector<int>& pinned_vertices, const std::vector<KinematicBody>& bodies,
+                  CollisionSettings settings, int threads);
+
+  // Adjusts v so that x + h v is collision-free. Bodies move from alpha0 to alpha1 of the frame.
+  void respond(const Positions& x, Positions& v, double h, const std::vector<KinematicBody>& bodies, double alpha0,
+               double alpha1);
+
+  // Before the solve: every free cloth vertex within the thickness of a collidable body face
+  // and not moving away from it gets its normal velocity relative to the body prescribed
+  // (to a small push back out), a constraint of the pre-filtered solve (pcg.h). Friction for
+  // these contacts is applied after the solve with the constraint's velocity change as the
+  // normal impulse.
+  void constrain_contacts(const Positions& x, const Positions& v, double h, const std::vector<KinematicBody>& bodies,
+                          double alpha0, double alpha1, ConstraintFilter& filter);
+
+  // Exact count of intersecting triangle pairs (cloth/body for collidable bodies at the end of
+  // the frame, cloth/cloth among self-colliding faces).
+  int count_intersections(const Positions& x, const std::vector<KinematicBody>& bodies) const;
+
+  void begin_frame() { frame_ = {}; }
+  CollisionTelemetry end_frame(const Positions& x, const std::vector<KinematicBody>& bodies);
+  const CollisionSettings& settings() const { return settings_; }
+  bool self_collision() const { return any_self_; }
+
+ private:
+  struct BodyState {
+    bool collide = true;
+    Faces faces;
+    FeatureOwnership own;
+    AabbTree tree;
+    std::vector<Aabb> boxes;
+    Positions start, end;
+  };
+  Vec3 start_of(int p, int body) const;
+  Vec3 end_of(int p, int body) const;
+  Vec3 velocity_of(int p, int body) const;
+  double inverse_mass_of(int p) const { return p >= 0 ? inverse_mass_[p] : 0.0; }
+  double pair_thickness(const FeaturePair& pair) const;
+  double pair_friction(const FeaturePair& pair) const;
+
+  // Broad phase over the current x and x + h v; fills pairs_.
+  void collect_pairs();
+  // Refit body `body`'s tree (swept over the step, or at its start) and put its overlapping
+  // (cloth face, body face) pairs into scratch_pairs_.
+  void body_triangle_pairs(int body, bool swept);
+  void expand_triangle_pair(int cloth_face, int other_face, int body, std::vector<FeaturePair>& out) const;
+  int proximity_pass();
+  // CCD over pairs_; with apply, impulses are applied as hits are found (in pair order).
+  // Incremental: only pairs with a cloth vertex whose velocity changed since the last pass (the
+  // others keep their trajectories, so their earlier "no hit" stands).
+  int ccd_pass(bool apply, std::vector<int>* hits, bool incremental);
+  void apply_impulse(const FeaturePair& pair, const std::array<double, 4>& w, const Vec3& n, double delta_vn,
+                     double friction);
+  int impact_zones(std::vector<int>& hits);
+
+  CollisionSettings settings_;
+  const Faces cloth_faces_;
+  int vertex_count_;
+  int threads_;
+  std::vector<double> inverse_mass_, vertex_thickness_, vertex_friction_;
+  std::vector<char> face_collide_, face_self_;
+  bool any_self_ = false, any_body_ = false;
+  FeatureOwnership cloth_own_;
+  AabbTree cloth_tree_;
+  std::vector<Aabb> cloth_boxes_;
+  std::vector<double> face_margin_;
+  std::vector<BodyState> bodies_;
+  double default_thickness_ = 0.002;
+
+  // Per respond() call.
+  const Positions* x_ = nullptr;
+  Positions* v_ = nullptr;
+  Positions x_end_;
+  double h_ = 0.0;
+  int frame_iteration_ = 0;  // CCD impulse pass within respond()
+  std::vector<char> changed_;  // cloth vertices whose velocity changed since the last CCD pass
+  struct SolveContact {
+    int vertex;
+    int body;
+    Vec3 normal;
+    Vec3 body_velocity;
+    double delta_vn;  // normal velocity change the constraint prescribed
+  };
+  std::vector<SolveContact> solve_contacts_;  // this step's, for friction after the solve
+  void body_positions(const std::vector<KinematicBody>& bodies, double alpha0, double alpha1);
+  void contact_friction();
+  std::vector<FeaturePair> pairs_;
+  std::vector<std::pair<int, int>> scratch_pairs_;
+  CollisionTelemetry frame_;
+};
+
+}  // namespace weft

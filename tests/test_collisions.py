@@ -1,0 +1,190 @@
+"""Collisions in the step: sheets dropped on a sphere and a box, a thin fast bar through hanging
+cloth, a sheet twisted by a full turn, a sheet folding onto itself on a floor; the shot's
+collision switches; the exact intersection counter."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from weft import _solver
+from weft.collision_scenes import drop_shot, floor_fold_shot, thin_bar_shot, twist_shot
+from weft.scene import build_setup, collision_switches
+from weft.scene_builders import grid_sheet, inline_mesh, sheet_shot
+
+from conftest import make_scene
+
+
+def simulate(doc, base_dir: Path | None = None, threads: int = 2):
+    """Yields (frame index, simulation, telemetry) for every simulated frame."""
+    scene = make_scene(doc, base_dir)
+    sim = _solver.Simulation(build_setup(scene, threads))
+    fps, substeps = scene.shot.fps, scene.shot.substeps
+    for index in range(1, scene.frame_count):
+        for b, body in enumerate(scene.bodies):
+            sim.set_body_keyframes(b, body.frames[index - 1], body.frames[index])
+        yield index, sim, sim.advance_frame((index - 1) / fps, 1.0 / fps, substeps)
+
+
+def convex_depth(x: np.ndarray, vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """Signed distance-like depth of points to a convex closed mesh: > 0 outside, < 0 inside."""
+    a, b, c = (vertices[faces[:, k]] for k in range(3))
+    n = np.cross(b - a, c - a)
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    return np.max(np.einsum("vfk,fk->vf", x[:, None, :] - a[None], n), axis=1)
+
+
+@pytest.mark.parametrize("body", ["sphere", "box"])
+def test_sheet_dropped_on_body_comes_to_rest_outside_without_intersections(body):
+    doc = drop_shot(body, n=16, frames=36, substeps=4)
+    vertices = np.asarray(doc["bodies"][0]["mesh"]["vertices"])
+    faces = np.asarray(doc["bodies"][0]["mesh"]["faces"])
+    peak = 0.0
+    for index, sim, t in simulate(doc):
+        assert t.intersections == 0, f"frame {index}: {t.intersections} intersecting triangle pairs"
+        assert t.unresolved_collisions == 0
+        assert convex_depth(sim.positions, vertices, faces).min() > 0.0, f"frame {index}: a vertex is inside"
+        peak = max(peak, t.kinetic_energy)
+    x = sim.positions
+    assert x[:, 1].min() < 0.0  # draped over the body, not stuck above it
+    assert t.kinetic_energy < 0.05 * peak, f"still moving: {t.kinetic_energy} J (peak {peak} J)"
+    assert t.ccd_candidates > 0 and t.proximity_pairs > 0
+
+
+def test_thin_fast_bar_does_not_tunnel_through_hanging_cloth(tmp_path):
+    doc = thin_bar_shot(tmp_path, n=16, frames=7, substeps=4)
+    hits = 0
+    for index, sim, t in simulate(doc, tmp_path):
+        assert t.intersections == 0, f"frame {index}: {t.intersections} intersecting triangle pairs"
+        hits += t.ccd_hits
+    # The bar (5 mm radius, 0.5 m per frame, 0.125 m per substep) crossed z = 0 in frame 3 and
+    # stopped at z = 0.9: cloth caught by it was carried along instead of being passed through.
+    assert sim.positions[:, 2].max() > 0.6
+    assert hits > 0
+
+
+def test_twist_by_a_full_turn_keeps_zero_self_intersections(tmp_path):
+    doc = twist_shot(tmp_path, n=12, frames=121, substeps=2)
+    contacts = 0
+    for index, sim, t in simulate(doc, tmp_path):
+        assert t.intersections == 0, f"frame {index}: {t.intersections} self-intersecting triangle pairs"
+        contacts += t.ccd_hits + t.proximity_pairs
+    assert sim.count_intersections() == 0
+    assert contacts > 100  # the twist really pressed the cloth onto itself
+
+
+def test_sheet_folding_onto_itself_on_a_floor_stays_free_of_self_intersection():
+    doc = floor_fold_shot(n=14, frames=36, substeps=4)
+    contacts = 0
+    for index, sim, t in simulate(doc):
+        assert t.intersections == 0, f"frame {index}: {t.intersections} intersecting triangle pairs"
+        assert sim.positions[:, 1].min() > 0.0
+        contacts += t.ccd_hits + t.proximity_pairs
+    assert sim.positions[:, 1].max() < 0.3  # down on the floor, folded
+    assert contacts > 0
+
+
+def test_collision_switches_and_defaults():
+    flag = make_scene(sheet_shot("flag", 4, 4, 1.0, 1.0))
+    assert collision_switches(flag)["enabled"] is False  # no bodies, one piece: nothing to pay
+    assert _solver.Simulation(build_setup(flag)).collisions_enabled is False
+
+    doc = drop_shot("box", n=4, frames=2)
+    on = collision_switches(make_scene(doc))
+    assert on["enabled"] and on["ccd"] and on["piece_collide"] == [True] and on["piece_self_collide"] == [True]
+    doc["features"] = {"collisions": False, "self_collision": False}
+    assert collision_switches(make_scene(doc))["enabled"] is False
+    doc["features"] = {"ccd": False}
+    doc["cloth"][0]["self_collide"] = False
+    doc["bodies"][0]["collide"] = True
+    s = collision_switches(make_scene(doc))
+    assert s["enabled"] and not s["ccd"] and s["piece_self_collide"] == [False]
+    doc["bodies"][0]["collide"] = False
+    assert collision_switches(make_scene(doc))["enabled"] is False
+    setup = build_setup(make_scene(drop_shot("box", n=4, frames=2)))
+    assert setup.collision.enabled and len(setup.collision.face_collide) == 18
+    assert np.allclose(setup.collision.face_thickness, 0.002)
+
+
+def test_exact_intersection_counter():
+    a = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+    through = np.array([[0.2, 0.2, -1.0], [0.2, 0.2, 1.0], [0.3, 0.5, 0.0]])
+    assert _solver.triangles_intersect(a, through)
+    assert not _solver.triangles_intersect(a, through + [0.0, 0.0, 1.5])
+    assert _solver.triangles_intersect(a, a + [0.2, 0.2, 0.0])  # coplanar overlap
+    assert not _solver.triangles_intersect(a, a + [2.0, 0.0, 0.0])
+    touching = np.array([[0.5, 0.5, 0.0], [0.5, 0.5, 1.0], [1.0, 1.0, 1.0]])  # vertex on the hypotenuse
+    assert _solver.triangles_intersect(a, touching)
+    assert not _solver.triangles_intersect(a, touching + [1e-15, 0.0, 0.0])  # exact: just off
+
+    x, f = grid_sheet(6, 6, 1.0, 1.0, "xz")
+    assert _solver.count_self_intersections(x, f.astype(np.int32)) == 0
+    folded = x.copy()
+    folded[:, 1] = np.where(x[:, 0] > 0.5, 0.3 * (x[:, 0] - 0.5), 0.0)
+    assert _solver.count_self_intersections(folded, f.astype(np.int32)) == 0
+    # Push one vertex of the flat sheet down through a second layer placed just below.
+    layer = x + [0.1, -0.01, 0.1]
+    assert _solver.count_mesh_intersections(x, f.astype(np.int32), layer, f.astype(np.int32)) == 0
+    poked = x.copy()
+    poked[14, 1] = -0.05
+    assert _solver.count_mesh_intersections(poked, f.astype(np.int32), layer, f.astype(np.int32)) > 0
+
+
+def test_collision_telemetry_reaches_the_cache(tmp_path):
+    import h5py
+
+    from weft.runner import ShotRunner
+
+    scene = make_scene(drop_shot("box", n=8, frames=8, substeps=2))
+    summary = ShotRunner(scene, tmp_path / "drop.h5", threads=1).run()
+    assert summary.status == "complete"
+    with h5py.File(tmp_path / "drop.h5", "r") as f:
+        t = f["telemetry"][()]
+    simulated = t[t["substeps"] > 0]
+    assert np.all(simulated["intersections"] == 0)
+    assert np.all(simulated["ccd_candidates"] > 0)
+    parts = sum(simulated[k] for k in ("collision_broad_phase_seconds", "collision_proximity_seconds",
+                                       "collision_ccd_seconds", "collision_response_seconds"))
+    assert np.all(parts <= simulated["collision_seconds"] + 1e-12)
+
+
+def test_ccd_single_and_batch_agree():
+    rng = np.random.default_rng(3)
+    start = rng.normal(size=(200, 4, 3))
+    end = start + rng.normal(scale=0.5, size=(200, 4, 3))
+    for single, batch in ((_solver.vertex_triangle_ccd, _solver.vertex_triangle_ccd_batch),
+                          (_solver.edge_edge_ccd, _solver.edge_edge_ccd_batch)):
+        hit, toi, _ = batch(start, end)
+        for k in range(len(start)):
+            assert single(start[k], end[k]) == (bool(hit[k]), float(toi[k]))
+    with pytest.raises(ValueError):
+        _solver.vertex_triangle_ccd_batch(start[:, :3], end[:, :3])
+
+
+def test_collision_stage_is_bitwise_reproducible_across_thread_counts():
+    doc = drop_shot("box", n=10, frames=10, substeps=2)
+    results = []
+    for threads in (1, 2):
+        for _, sim, _ in simulate(doc, threads=threads):
+            pass
+        results.append(sim.positions.copy())
+    assert np.array_equal(results[0], results[1])
+
+
+def test_contact_constraints_in_the_solve_keep_the_sheet_outside():
+    doc = drop_shot("sphere", n=12, frames=20, substeps=4)
+    scene = make_scene(doc)
+    setup = build_setup(scene, 2)
+    settings = setup.collision
+    settings.contact_constraints = True
+    setup.collision = settings
+    sim = _solver.Simulation(setup)
+    vertices = np.asarray(doc["bodies"][0]["mesh"]["vertices"])
+    faces = np.asarray(doc["bodies"][0]["mesh"]["faces"])
+    for index in range(1, scene.frame_count):
+        t = sim.advance_frame((index - 1) / 24, 1 / 24, 4)
+        assert t.intersections == 0
+        assert convex_depth(sim.positions, vertices, faces).min() > 0.0
+    assert sim.positions[:, 1].min() < 0.0

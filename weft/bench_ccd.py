@@ -1,0 +1,88 @@
+"""`weft bench ccd`: CCD query throughput and false negatives on the randomized exact-truth set
+(weft.ccd_queries), and the per-frame collision cost against vertex count on the twisting sheet
+(weft.collision_scenes.twist_shot)."""
+
+from __future__ import annotations
+
+import os
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+
+def query_benchmark(count: int, threads: int, seed: int = 7) -> list[dict[str, Any]]:
+    from weft import _solver
+    from weft.ccd_queries import make_queries
+
+    rng = np.random.default_rng(seed)
+    rows = []
+    for edge_edge in (False, True):
+        qs = make_queries(rng, count, edge_edge, scale_exponents=(-300, -40, 0, 0, 0, 40, 300), far_fraction=0.1)
+        batch = _solver.edge_edge_ccd_batch if edge_edge else _solver.vertex_triangle_ccd_batch
+        start = time.perf_counter()
+        hit, toi, boxes = batch(qs.start, qs.end, threads=threads)
+        seconds = time.perf_counter() - start
+        misses = ~qs.hit
+        rows.append({
+            "query": "edge-edge" if edge_edge else "vertex-triangle",
+            "queries": len(qs),
+            "threads": threads,
+            "seconds": seconds,
+            "queries_per_second": len(qs) / seconds,
+            "hits_true": int(qs.hit.sum()),
+            "false_negatives": int(np.sum(qs.hit & ~hit)),
+            "false_positives": int(np.sum(misses & hit)),
+            "false_positive_rate": float(np.mean(hit[misses])),
+            "toi_above_truth": int(np.sum(qs.hit & hit & (toi > qs.t_star))),
+            "mean_boxes": float(boxes.mean()),
+        })
+    return rows
+
+
+def twist_benchmark(sizes: list[int], frames: int, substeps: int, threads: int) -> list[dict[str, Any]]:
+    from weft import _solver
+    from weft.collision_scenes import twist_shot
+    from weft.scene import build_setup, parse_shot, resolve_scene
+
+    rows = []
+    for n in sizes:
+        with tempfile.TemporaryDirectory() as tmp:
+            doc = twist_shot(Path(tmp), n=n, frames=frames, substeps=substeps)
+            scene = resolve_scene(parse_shot(doc), Path(tmp))
+            sim = _solver.Simulation(build_setup(scene, threads))
+            collision, total, intersections, hits, zones = [], [], 0, 0, 0
+            split = np.zeros(4)
+            for index in range(1, scene.frame_count):
+                for b, body in enumerate(scene.bodies):
+                    sim.set_body_keyframes(b, body.frames[index - 1], body.frames[index])
+                t = sim.advance_frame((index - 1) / scene.shot.fps, 1.0 / scene.shot.fps, substeps)
+                collision.append(t.collision_seconds)
+                total.append(t.total_seconds)
+                split += [t.collision_broad_phase_seconds, t.collision_proximity_seconds, t.collision_ccd_seconds,
+                          t.collision_response_seconds]
+                intersections = max(intersections, t.intersections)
+                hits += t.ccd_hits
+                zones += t.impact_zones
+        frames_run = len(collision)
+        rows.append({
+            "vertices": n * n,
+            "frames": frames_run,
+            "substeps": substeps,
+            "collision_seconds_per_frame": float(np.mean(collision)),
+            "collision_seconds_max": float(np.max(collision)),
+            "broad_proximity_ccd_response_per_frame": (split / frames_run).tolist(),
+            "total_seconds_per_frame": float(np.mean(total)),
+            "ccd_hits": hits,
+            "impact_zones": zones,
+            "max_intersections": intersections,
+        })
+    return rows
+
+
+def prefer_passive_openmp() -> None:
+    """Spin-waiting OpenMP workers steal cores on shared machines; must run before the solver
+    library is loaded to take effect."""
+    os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")

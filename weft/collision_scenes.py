@@ -1,0 +1,116 @@
+"""Collision scenes built with code: a sheet dropped on a sphere or a box, a thin bar sweeping
+through hanging cloth, a sheet twisted by a full turn, a sheet falling onto a floor.
+
+Used by the collision tests and `weft bench ccd`. Bodies are inline meshes; animated bodies
+write their per-frame positions as NPZ files into the given directory (the shot references
+them by relative path).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from weft.scene_builders import grid_sheet, inline_mesh, sheet_shot
+
+
+def sphere_mesh(radius: float, subdivisions: int = 3, centre=(0.0, 0.0, 0.0)) -> tuple[np.ndarray, np.ndarray]:
+    import trimesh
+
+    m = trimesh.creation.icosphere(subdivisions=subdivisions, radius=radius)
+    return np.asarray(m.vertices) + np.asarray(centre), np.asarray(m.faces)
+
+
+def box_mesh(extents=(0.5, 0.5, 0.5), centre=(0.0, 0.0, 0.0)) -> tuple[np.ndarray, np.ndarray]:
+    import trimesh
+
+    m = trimesh.creation.box(extents=extents)
+    return np.asarray(m.vertices) + np.asarray(centre), np.asarray(m.faces)
+
+
+def bar_mesh(radius: float, length: float, sections: int = 8) -> tuple[np.ndarray, np.ndarray]:
+    """A closed cylinder along x centred at the origin."""
+    import trimesh
+
+    m = trimesh.creation.cylinder(radius=radius, height=length, sections=sections)
+    m.apply_transform(trimesh.transformations.rotation_matrix(np.pi / 2, [0, 1, 0]))
+    return np.asarray(m.vertices), np.asarray(m.faces)
+
+
+def drop_shot(body: str = "sphere", n: int = 16, frames: int = 36, substeps: int = 4) -> dict[str, Any]:
+    """A 1 m horizontal sheet released 0.15 m above a sphere (r 0.3 m) or a cube (0.5 m)."""
+    if body == "sphere":
+        vertices, faces = sphere_mesh(0.3)
+    elif body == "box":
+        vertices, faces = box_mesh()
+    else:
+        raise ValueError(f"unknown body {body!r}")
+    doc = sheet_shot(
+        f"drop_{body}", n, n, 1.0, 1.0, plane="xz", origin=(-0.5, 0.45, -0.5), frames=frames, substeps=substeps,
+        material={"friction": 0.5, "damping": 0.01}, air_drag=0.2,
+    )
+    doc["bodies"] = [{"name": body, "mesh": inline_mesh(vertices, faces)}]
+    return doc
+
+
+def thin_bar_shot(directory: Path, n: int = 16, frames: int = 7, substeps: int = 4) -> dict[str, Any]:
+    """A 0.5 m sheet hanging from its top row; a bar of radius 5 mm moving 0.5 m per frame
+    sweeps through it along +z, from z = -0.6 to z = +0.9 (it crosses the sheet in frame 3)."""
+    vertices, faces = bar_mesh(0.005, 1.0)
+    start = vertices + np.array([0.25, -0.3, -0.6])
+    animation = np.stack([start + [0.0, 0.0, min(0.5 * max(f - 1, 0), 1.5)] for f in range(frames)])
+    directory.mkdir(parents=True, exist_ok=True)
+    np.savez(directory / "bar.npz", positions=animation)
+    doc = sheet_shot("thin_bar", n, n, 0.5, 0.5, plane="xy", pins=list(range(n)), frames=frames, substeps=substeps)
+    doc["bodies"] = [{"name": "bar", "mesh": inline_mesh(start, faces), "animation": {"path": "bar.npz"}}]
+    return doc
+
+
+def twist_shot(directory: Path, n: int = 12, frames: int = 121, substeps: int = 2, width: float = 0.5) -> dict[str, Any]:
+    """A square sheet held at two opposite edges (pinned to two thin handle bodies that do not
+    collide); the handles turn half a turn each in opposite directions about the sheet's axis
+    (a full relative turn over the shot) while coming 0.2 m closer. Self-collision on."""
+    doc = sheet_shot("twist", n, n, width, width, plane="xz", origin=(0.0, 0.0, -width / 2), frames=frames,
+                     substeps=substeps)
+    left = [j * n for j in range(n)]
+    right = [j * n + n - 1 for j in range(n)]
+    z = np.linspace(-width / 2, width / 2, n)
+    strip = [(k, k + 1, n + k) for k in range(n - 1)] + [(k + 1, n + k + 1, n + k) for k in range(n - 1)]
+    directory.mkdir(parents=True, exist_ok=True)
+    bodies = []
+    for name, x, sign in (("left", 0.0, -1.0), ("right", width, 1.0)):
+        edge = np.stack([np.full(n, x), np.zeros(n), z], axis=1)
+        handle = np.concatenate([edge, edge + [sign * 0.01, 0.0, 0.0]])
+        frames_v = []
+        for k in range(frames):
+            s = k / (frames - 1)
+            angle = sign * np.pi * s
+            c, si = np.cos(angle), np.sin(angle)
+            moved = handle.copy()
+            moved[:, 1] = c * handle[:, 1] - si * handle[:, 2]
+            moved[:, 2] = si * handle[:, 1] + c * handle[:, 2]
+            moved[:, 0] -= sign * 0.1 * s
+            frames_v.append(moved)
+        np.savez(directory / f"{name}.npz", positions=np.asarray(frames_v))
+        bodies.append({"name": name, "mesh": inline_mesh(handle, np.asarray(strip)),
+                       "animation": {"path": f"{name}.npz"}, "collide": False})
+    doc["bodies"] = bodies
+    doc["cloth"][0]["pins"] = [{"vertices": left, "body": "left"}, {"vertices": right, "body": "right"}]
+    doc["features"] = {"self_collision": True}
+    return doc
+
+
+def floor_fold_shot(n: int = 14, frames: int = 36, substeps: int = 4) -> dict[str, Any]:
+    """A vertical 0.6 m sheet, slightly tilted, released just above a floor: it lands on its
+    lower edge, buckles and folds onto itself."""
+    vertices, faces = grid_sheet(n, n, 0.6, 0.6, "xy", origin=(-0.3, 0.62, 0.0))
+    vertices[:, 2] += 0.08 * (vertices[:, 1] - 0.02)  # lean forward so it folds one way
+    doc = sheet_shot("floor_fold", n, n, 0.6, 0.6, frames=frames, substeps=substeps,
+                     material={"bend": 1e-6, "friction": 0.6, "damping": 0.01}, air_drag=0.2)
+    doc["cloth"][0]["mesh"] = inline_mesh(vertices, faces)
+    floor = np.array([[-2.0, 0.0, -2.0], [2.0, 0.0, -2.0], [2.0, 0.0, 2.0], [-2.0, 0.0, 2.0]])
+    doc["bodies"] = [{"name": "floor", "mesh": inline_mesh(floor, np.array([[0, 2, 1], [0, 3, 2]]))}]
+    doc["features"] = {"self_collision": True}
+    return doc
