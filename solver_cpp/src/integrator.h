@@ -10,6 +10,7 @@
 #include "constraints.h"
 #include "forces.h"
 #include "linear_system.h"
+#include "linear_system_path.h"
 
 namespace weft {
 
@@ -17,6 +18,8 @@ struct SolverSettings {
   double cg_tolerance = 1e-5;
   int cg_max_iterations = 500;
   int threads = 1;
+  LinearSystemKind linear_system = LinearSystemKind::kFast;  // fast | reference (linear_system_path.h)
+  MatrixPrecision matrix_precision = MatrixPrecision::kFloat32;  // fast path's matrix values
 };
 
 // Everything needed to build a simulation, as flat arrays (cloth pieces concatenated).
@@ -87,6 +90,8 @@ class Simulation {
   const PinSet& pins() const { return pins_; }
   int body_count() const { return static_cast<int>(bodies_.size()); }
   const SolverSettings& settings() const { return settings_; }
+  LinearSystemPath& linear_system() { return *linear_; }
+  const ConstraintFilter& constraint_filter() const { return filter_; }  // of the last step
 
  private:
   struct StepTimings {
@@ -101,7 +106,7 @@ class Simulation {
   SolverSettings settings_;
   ClothMesh mesh_;
   std::unique_ptr<ForceModel> force_model_;
-  std::unique_ptr<ReferenceAssembler> assembler_;
+  std::unique_ptr<LinearSystemPath> linear_;
   std::vector<KinematicBody> bodies_;
   std::vector<Positions> body_scratch_;
   PinSet pins_;
