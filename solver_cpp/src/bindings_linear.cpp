@@ -37,10 +37,14 @@ void bind_linear_system(py::module_& m) {
   m.def(
       "time_spmv",
       [](Simulation& s, int repeats) {
-        const SpmvTiming t = time_spmv(s.linear_system(), repeats, s.settings().threads);
+        SpmvTiming t;
+        {
+          py::gil_scoped_release release;
+          t = time_spmv(s.linear_system(), repeats, s.settings().threads);
+        }
         return py::make_tuple(t.seconds, t.bytes);
       },
-      py::arg("simulation"), py::arg("repeats") = 20, py::call_guard<py::gil_scoped_release>(),
+      py::arg("simulation"), py::arg("repeats") = 20,
       "(seconds per multiply (median), bytes per multiply) of the fast path's last built matrix.");
   m.def(
       "compare_with_eigen_cg",

@@ -134,11 +134,12 @@ void FastLinearSystem<Scalar>::build(const Positions& x, const Positions& v, dou
         acc[4] += row_mass_[r];
         acc[8] += row_mass_[r];
       }
-      Scalar* dst = matrix_.block(k);
-      for (int i = 0; i < 9; ++i) dst[i] = static_cast<Scalar>(acc[i]);
+      Scalar* dst = matrix_.block(k);  // column-major
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) dst[3 * j + i] = static_cast<Scalar>(acc[3 * i + j]);
       if (k == diagonal_index_[r])
         for (int i = 0; i < 3; ++i)
-          for (int j = 0; j < 3; ++j) diagonal_[r](i, j) = static_cast<double>(dst[3 * i + j]);
+          for (int j = 0; j < 3; ++j) diagonal_[r](i, j) = static_cast<double>(dst[3 * j + i]);
     }
     for (; next_transient < transient_end; ++next_transient)
       outside[t].emplace_back(transient_rows_.columns[next_transient], transient_rows_.blocks[next_transient]);
@@ -160,8 +161,8 @@ void FastLinearSystem<Scalar>::build(const Positions& x, const Positions& v, dou
     rows.push_back(transient_rows_.rows[t]);
     for (const auto& [c, a] : outside[t]) {
       cols.push_back(c);
-      for (int i = 0; i < 3; ++i)
-        for (int j = 0; j < 3; ++j) values.push_back(static_cast<Scalar>(a(i, j)));
+      for (int j = 0; j < 3; ++j)
+        for (int i = 0; i < 3; ++i) values.push_back(static_cast<Scalar>(a(i, j)));
     }
     start.push_back(static_cast<int>(cols.size()));
   }
@@ -187,9 +188,9 @@ PcgStats FastLinearSystem<Scalar>::solve_with(const ConstraintFilter& filter, Ve
     permuted_filter_.prescribed.segment<3>(3 * r) = filter.prescribed.segment<3>(3 * old);
     permuted_dv_.segment<3>(3 * r) = dv.segment<3>(3 * old);
   }
-  auto apply = [this, threads](const VectorX& in, VectorX& out) {
+  auto apply = [this, threads](const VectorX& in, VectorX& out, double* chunk_dots) {
     out.resize(in.size());
-    matrix_.multiply(in.data(), out.data(), threads);
+    matrix_.multiply(in.data(), out.data(), threads, chunk_dots);
   };
   const PcgStats stats = prefiltered_pcg(apply, diagonal_, permuted_filter_, rhs_, permuted_dv_, pcg, threads);
 #pragma omp parallel for schedule(static) num_threads(threads)
@@ -220,7 +221,7 @@ Eigen::SparseMatrix<double, Eigen::RowMajor> FastLinearSystem<Scalar>::to_sparse
   auto add = [&](int r, int c, const Scalar* a) {
     for (int i = 0; i < 3; ++i)
       for (int j = 0; j < 3; ++j)
-        entries.emplace_back(3 * order_[r] + i, 3 * order_[c] + j, static_cast<double>(a[3 * i + j]));
+        entries.emplace_back(3 * order_[r] + i, 3 * order_[c] + j, static_cast<double>(a[3 * j + i]));
   };
   for (int r = 0; r < n; ++r)
     for (int k = matrix_.row_begin(r); k < matrix_.row_end(r); ++k) add(r, matrix_.column(k, r), matrix_.block(k));

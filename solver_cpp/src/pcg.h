@@ -57,7 +57,10 @@ struct PcgStats {
   bool converged = false;
 };
 
-// apply_matrix(in, out) computes out = A in (out already sized). x holds an initial guess on
+// apply_matrix(in, out) computes out = A in (out already sized). It may instead take a third
+// argument, double* chunk_dots, and then also write the fixed-order partial sums of in . out per
+// chunk of kReductionChunk vertices (or ignore a null pointer): the dot of the CG step is then
+// fused into the matrix pass. x holds an initial guess on
 // entry and the solution on exit. Vector updates run on `threads` threads; every dot product is
 // a fixed-order chunked sum (ordered_sum.h), so the iterates are bitwise independent of the
 // thread count. The filter is applied only at its constrained vertices.
@@ -88,9 +91,40 @@ PcgStats prefiltered_pcg(const ApplyMatrix& apply_matrix, const std::vector<Mat3
   };
   using One = std::integral_constant<int, 1>;
   using Two = std::integral_constant<int, 2>;
+  constexpr bool fused = std::is_invocable_v<const ApplyMatrix&, const VectorX&, VectorX&, double*>;
+  auto multiply = [&](const VectorX& in, VectorX& out) {
+    if constexpr (fused)
+      apply_matrix(in, out, nullptr);
+    else
+      apply_matrix(in, out);
+  };
+  // out = S A in; returns in . out (fixed order).
+  std::vector<double> chunk_dots(static_cast<size_t>((vertex_count + kReductionChunk - 1) / kReductionChunk));
+  std::vector<Vec3> unfiltered;
+  auto multiply_filtered_dot = [&](const VectorX& in, VectorX& out) {
+    if constexpr (fused) {
+      apply_matrix(in, out, chunk_dots.data());
+      unfiltered.clear();
+      for (int i : constrained) unfiltered.push_back(out.segment<3>(3 * i));
+      apply_filter(out);
+      double dot = 0.0;
+      for (double c : chunk_dots) dot += c;
+      for (size_t k = 0; k < constrained.size(); ++k) {  // the chunks summed A in; correct to S A in
+        const Vec3 xi = in.segment<3>(3 * constrained[k]);
+        dot += xi.dot(out.segment<3>(3 * constrained[k])) - xi.dot(unfiltered[k]);
+      }
+      return dot;
+    } else {
+      apply_matrix(in, out);
+      apply_filter(out);
+      return vertex_sums(One{}, [&](std::int64_t i, std::array<double, 1>& s) {
+        s[0] += in.segment<3>(3 * i).dot(out.segment<3>(3 * i));
+      })[0];
+    }
+  };
 
   // Right-hand side of the filtered system.
-  apply_matrix(filter.prescribed, tmp);
+  multiply(filter.prescribed, tmp);
   VectorX rhs = b - tmp;
   apply_filter(rhs);
   const double rhs_norm = std::sqrt(vertex_sums(One{}, [&](std::int64_t i, std::array<double, 1>& s) {
@@ -115,7 +149,7 @@ PcgStats prefiltered_pcg(const ApplyMatrix& apply_matrix, const std::vector<Mat3
     stats.relative_residual = rhs_norm == 0.0 ? 0.0 : rhs_norm;
     return stats;
   }
-  apply_matrix(y, tmp);
+  multiply(y, tmp);
   apply_filter(tmp);
   // r = rhs - S A S y; z = P r; p = z.
   auto start = vertex_sums(Two{}, [&](std::int64_t i, std::array<double, 2>& s) {
@@ -130,11 +164,7 @@ PcgStats prefiltered_pcg(const ApplyMatrix& apply_matrix, const std::vector<Mat3
   double residual_norm = std::sqrt(start[0]);
   double rz = start[1];
   while (residual_norm > settings.tolerance * rhs_norm && stats.iterations < settings.max_iterations) {
-    apply_matrix(p, q);
-    apply_filter(q);
-    const double pq = vertex_sums(One{}, [&](std::int64_t i, std::array<double, 1>& s) {
-      s[0] += p.segment<3>(3 * i).dot(q.segment<3>(3 * i));
-    })[0];
+    const double pq = multiply_filtered_dot(p, q);
     if (!(pq > 0.0)) break;  // loss of positive definiteness or breakdown: keep what we have
     const double alpha = rz / pq;
     // y += alpha p; r -= alpha q; z = P r; with |r|^2 and r.z in the same pass.
