@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import sys
+from enum import Enum
 from pathlib import Path
 from typing import Annotated, Optional
 
@@ -20,6 +21,13 @@ app = typer.Typer(
     pretty_exceptions_enable=False,
 )
 console = Console(stderr=True)
+
+
+class LinearSystemChoice(str, Enum):
+    fast = "fast"
+    reference = "reference"
+
+
 out = Console()
 
 
@@ -28,11 +36,13 @@ def _fail(message: str, code: int = 2) -> None:
     raise typer.Exit(code)
 
 
-def _load_scene(shot_path: Path):  # type: ignore[no-untyped-def]
+def _load_scene(shot_path: Path, linear_system: Optional[str] = None):  # type: ignore[no-untyped-def]
     from weft.scene import ShotError, ShotValidationError, load_shot_file, resolve_scene
 
     try:
         shot = load_shot_file(shot_path)
+        if linear_system is not None:  # command-line override of the shot's solver.linear_system
+            shot = shot.model_copy(update={"solver": shot.solver.model_copy(update={"linear_system": linear_system})})
         return resolve_scene(shot, shot_path.parent)
     except ShotValidationError as exc:
         lines = "\n".join(f"  {e.field}: {e.problem}" for e in exc.errors)
@@ -59,12 +69,16 @@ def run(
     threads: Annotated[int, typer.Option("--threads", min=1, max=256, help="Solver threads")] = 1,
     resume: Annotated[bool, typer.Option("--resume", help="Continue an interrupted cache")] = False,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar")] = False,
+    linear_system: Annotated[
+        Optional[LinearSystemChoice],
+        typer.Option("--linear-system", help="Override the shot's solver.linear_system (fast or reference)"),
+    ] = None,
 ) -> None:
     """Simulate a shot into an HDF5 cache."""
     from weft.cache import CacheError
     from weft.runner import FrameRecord, ShotRunner, SolverFailure
 
-    scene = _load_scene(shot)
+    scene = _load_scene(shot, linear_system.value if linear_system else None)
     if output.exists() and not resume:
         _fail(f"{output} exists; remove it or pass --resume to continue it")
     runner = ShotRunner(scene, output, threads=threads, frames=frames, resume=resume)

@@ -177,7 +177,10 @@ PcgStats FastLinearSystem<Scalar>::solve(const ConstraintFilter& filter, VectorX
 template <class Scalar>
 PcgStats FastLinearSystem<Scalar>::solve_with(const ConstraintFilter& filter, VectorX& dv, const PcgSettings& pcg) {
   const int n = mesh_.vertex_count;
-  const int threads = options_.threads;
+  // Each CG iteration has three barriers; below a few thousand rows they cost more than the
+  // work they split (and far more on a loaded machine), so small systems solve on one thread.
+  // The iterates are bitwise the same either way (fixed-order reductions).
+  const int threads = n >= kParallelSolveRows ? options_.threads : 1;
   if (dv.size() != 3 * n) throw std::invalid_argument("dv must have 3 entries per vertex");
   // Filter and warm start into row order; only constrained vertices carry a non-identity S.
   permuted_filter_.constrained_vertices = filter.constrained_vertices;

@@ -20,6 +20,8 @@
 
 namespace weft {
 
+constexpr int kParallelSolveRows = 8192;  // smaller systems solve on one thread
+
 template <class Scalar>
 class FastLinearSystem final : public LinearSystemPath {
  public:
