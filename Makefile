@@ -43,5 +43,9 @@ test-py: build
 
 test: test-cpp test-py
 
+# The fast linear system against the reference path (docs/linear-system.md); a few minutes.
+bench: build
+	$(VENV)/bin/weft bench solver --threads 2 --json out/bench_solver.json
+
 clean:
 	rm -rf build out scenes/generated

@@ -159,6 +159,11 @@ def info(
     out.print(table)
 
 
+from weft.bench_cli import bench_app  # noqa: E402
+
+app.add_typer(bench_app)
+
+
 def main() -> None:  # pragma: no cover
     app()
 

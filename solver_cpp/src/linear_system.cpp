@@ -1,7 +1,10 @@
 #include "linear_system.h"
 
 #include <Eigen/IterativeLinearSolvers>
+#include <algorithm>
 #include <chrono>
+
+#include "rcm.h"
 
 namespace weft {
 
@@ -17,22 +20,27 @@ void add_block(SparseMatrix& m, int row_vertex, int col_vertex, const Mat3& bloc
     for (int c = 0; c < 3; ++c) m.coeffRef(3 * row_vertex + r, 3 * col_vertex + c) += block(r, c);
 }
 
+// The 3x3-block pattern of every element's couplings, built straight in compressed rows (a
+// triplet list would take several GB at 640k vertices).
 SparseMatrix make_pattern(const ClothMesh& mesh) {
-  std::vector<Eigen::Triplet<double>> entries;
-  auto add_pairs = [&](const int* v, int k) {
-    for (int a = 0; a < k; ++a)
-      for (int b = 0; b < k; ++b)
-        for (int r = 0; r < 3; ++r)
-          for (int c = 0; c < 3; ++c) entries.emplace_back(3 * v[a] + r, 3 * v[b] + c, 0.0);
-  };
-  for (int f = 0; f < mesh.faces.rows(); ++f) {
-    const int v[3] = {mesh.faces(f, 0), mesh.faces(f, 1), mesh.faces(f, 2)};
-    add_pairs(v, 3);
+  const int n = mesh.vertex_count;
+  std::vector<std::pair<int, int>> edges;
+  for (int f = 0; f < mesh.faces.rows(); ++f)
+    for (int a = 0; a < 3; ++a) edges.emplace_back(mesh.faces(f, a), mesh.faces(f, (a + 1) % 3));
+  for (const Hinge& h : mesh.hinges) edges.emplace_back(h[2], h[3]);
+  const Graph g = graph_from_edges(n, edges);
+  SparseMatrix m(3 * n, 3 * n);
+  Eigen::VectorXi per_row(3 * n);
+  for (int i = 0; i < n; ++i)
+    for (int r = 0; r < 3; ++r) per_row[3 * i + r] = 3 * (g.degree(i) + 1);
+  m.reserve(per_row);
+  for (int i = 0; i < n; ++i) {
+    std::vector<int> cols(g.neighbors.begin() + g.offsets[i], g.neighbors.begin() + g.offsets[i + 1]);
+    cols.insert(std::lower_bound(cols.begin(), cols.end(), i), i);
+    for (int r = 0; r < 3; ++r)
+      for (int j : cols)
+        for (int c = 0; c < 3; ++c) m.insert(3 * i + r, 3 * j + c) = 0.0;
   }
-  for (const Hinge& h : mesh.hinges) add_pairs(h.data(), 4);
-  for (int i = 0; i < mesh.vertex_count; ++i) add_pairs(&i, 1);
-  SparseMatrix m(3 * mesh.vertex_count, 3 * mesh.vertex_count);
-  m.setFromTriplets(entries.begin(), entries.end());
   m.makeCompressed();
   return m;
 }

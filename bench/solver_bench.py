@@ -1,0 +1,261 @@
+"""`weft bench solver`: the fast linear system against the reference path, shaped like Table 1
+of the seed talk (Eberle 2018), on square sheets of about 10k, 40k, 160k and 640k vertices.
+
+Every sheet has the same 3 cm spacing, cloth and wind, two pinned corners, 24 fps and 4 implicit
+steps per frame, so CG iteration counts stay comparable across sizes. Per size and path: one
+untimed warm-up step, then whole frames (or single steps, scaled to a frame, where the budget
+says so; the table marks it). Then, on the fast path's last system: the SpMV alone (median of
+repeats, effective bandwidth = bytes it must stream / time) and the same solve done from zero by
+the fast PCG and by Eigen's ConjugateGradient in double to the same relative residual. A
+STREAM triad (C++, same process, same threads) gives the machine's bandwidth.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any, Callable
+
+SPACING = 0.03
+FPS = 24.0
+SUBSTEPS = 4
+MATERIAL = {"density": 0.3, "stretch_warp": 3000.0, "stretch_weft": 2000.0, "shear": 150.0, "bend": 2e-5,
+            "damping": 0.001}
+
+
+@dataclass
+class Size:
+    name: str
+    side: int            # vertices per side
+    fast_frames: int     # timed frames of SUBSTEPS steps (0: fast_steps single steps, scaled)
+    reference_frames: int
+    fast_steps: int = 0
+    reference_steps: int = 0
+
+
+SIZES = [
+    Size("sheet-10k", 100, 3, 2),
+    Size("sheet-40k", 200, 2, 1),
+    Size("sheet-160k", 400, 1, 0, reference_steps=2),
+    Size("sheet-640k", 800, 0, 0, fast_steps=2, reference_steps=1),
+]
+QUICK_SIZES = [Size("sheet-2.5k", 50, 2, 1), Size("sheet-10k", 100, 1, 0, reference_steps=1)]
+
+
+@dataclass
+class PathRecord:
+    scene: str
+    vertices: int
+    path: str
+    precision: str
+    threads: int
+    measured: str                 # what was timed, e.g. "2 frames" or "1 of 4 steps, scaled"
+    build_s_per_frame: float
+    solve_s_per_frame: float
+    sim_s_per_frame: float
+    s_per_step: float
+    cg_iterations_per_step: float
+    force_elements: int
+    per_force_elements: int
+    bandwidth_natural: int
+    bandwidth: int
+    narrow_columns: bool
+    extra: dict[str, Any] = field(default_factory=dict)
+
+
+def sheet_document(side: int) -> dict[str, Any]:
+    from weft.scene_builders import sheet_shot
+
+    width = SPACING * (side - 1)
+    return sheet_shot(
+        f"bench-{side}", side, side, width, width, pins=[0, side - 1], fps=FPS, frames=2, substeps=SUBSTEPS,
+        air_drag=0.4, wind={"velocity": [1.5, 0.0, 3.0], "gust_amplitude": 0.5, "gust_frequency": 0.7},
+        material=MATERIAL, solver={"cg_tolerance": 1e-5, "cg_max_iterations": 2000},
+    )
+
+
+def measure_path(scene: Any, size: Size, path: str, threads: int) -> tuple[PathRecord, Any]:
+    from weft import _solver
+    from weft.scene import build_setup
+
+    sim = _solver.Simulation(build_setup(scene, threads, path))
+    dt = 1.0 / FPS
+    h = dt / SUBSTEPS
+    sim.advance_frame(0.0, h, 1)  # warm-up: first touch of every buffer
+    frames = size.fast_frames if path == "fast" else size.reference_frames
+    steps = size.fast_steps if path == "fast" else size.reference_steps
+    build = solve = total = 0.0
+    iterations = 0
+    if frames > 0:
+        for k in range(frames):
+            t = sim.advance_frame(h + k * dt, dt, SUBSTEPS)
+            build += t.build_seconds
+            solve += t.solve_seconds
+            total += t.total_seconds
+            iterations += t.cg_iterations
+        build, solve, total = build / frames, solve / frames, total / frames
+        per_step_iterations = iterations / (frames * SUBSTEPS)
+        measured = f"{frames} frame{'s' if frames > 1 else ''}"
+    else:
+        overhead = 0.0
+        for k in range(steps):
+            t = sim.advance_frame(h * (k + 1), h, 1)
+            build += t.build_seconds
+            solve += t.solve_seconds
+            overhead += t.total_seconds - t.build_seconds - t.solve_seconds  # once-per-frame energies
+            iterations += t.cg_iterations
+        build, solve = SUBSTEPS * build / steps, SUBSTEPS * solve / steps
+        total = build + solve + overhead / steps
+        per_step_iterations = iterations / steps
+        measured = f"{steps} of {SUBSTEPS} steps, scaled"
+    info = _solver.linear_system_info(sim)
+    record = PathRecord(
+        scene=size.name, vertices=scene.vertex_count, path=path, precision=info.precision, threads=threads,
+        measured=measured, build_s_per_frame=build, solve_s_per_frame=solve, sim_s_per_frame=total,
+        s_per_step=total / SUBSTEPS, cg_iterations_per_step=per_step_iterations,
+        force_elements=info.force_elements, per_force_elements=info.per_force_elements,
+        bandwidth_natural=info.bandwidth_natural, bandwidth=info.bandwidth, narrow_columns=info.narrow_columns,
+    )
+    return record, sim
+
+
+def fast_extras(sim: Any, triad: float, tolerance: float) -> dict[str, Any]:
+    from weft import _solver
+
+    seconds, nbytes = _solver.time_spmv(sim, 15)
+    compare = _solver.compare_with_eigen_cg(sim, tolerance)
+    return {
+        "spmv_seconds": seconds,
+        "spmv_bytes": nbytes,
+        "spmv_gb_per_s": nbytes / seconds / 1e9,
+        "triad_gb_per_s": triad / 1e9,
+        "spmv_fraction_of_triad": nbytes / seconds / triad,
+        "same_system_fast_pcg_seconds": compare["fast_seconds"],
+        "same_system_fast_pcg_iterations": compare["fast_iterations"],
+        "same_system_fast_pcg_residual": compare["fast_residual"],
+        "same_system_eigen_cg_seconds": compare["eigen_seconds"],
+        "same_system_eigen_cg_iterations": compare["eigen_iterations"],
+        "same_system_eigen_cg_residual": compare["eigen_residual"],
+        "eigen_cg_over_fast_pcg": compare["eigen_seconds"] / compare["fast_seconds"],
+    }
+
+
+def run_bench(threads: int = 2, quick: bool = False, log: Callable[[str], None] = print) -> dict[str, Any]:
+    from weft import _solver
+    from weft.scene import parse_shot, resolve_scene
+
+    started = time.perf_counter()
+    triad = _solver.stream_triad_bandwidth(20_000_000, 10, threads)
+    log(f"STREAM triad ({threads} threads, 3 x 160 MB): {triad / 1e9:.1f} GB/s")
+    records: list[PathRecord] = []
+    for size in QUICK_SIZES if quick else SIZES:
+        document = sheet_document(size.side)
+        scene = resolve_scene(parse_shot(document), Path.cwd())
+        del document
+        fast, sim = measure_path(scene, size, "fast", threads)
+        fast.extra = fast_extras(sim, triad, 1e-5)
+        del sim
+        log(f"{size.name}: fast {fast.sim_s_per_frame:.3f} s/frame")
+        reference, sim = measure_path(scene, size, "reference", threads)
+        del sim
+        log(f"{size.name}: reference {reference.sim_s_per_frame:.3f} s/frame")
+        fast.extra.update({
+            "build_speedup": reference.build_s_per_frame / fast.build_s_per_frame,
+            "solve_speedup": reference.solve_s_per_frame / fast.solve_s_per_frame,
+            "sim_speedup": reference.sim_s_per_frame / fast.sim_s_per_frame,
+        })
+        records += [fast, reference]
+    return {
+        "threads": threads,
+        "substeps_per_frame": SUBSTEPS,
+        "fps": FPS,
+        "spacing_m": SPACING,
+        "triad_gb_per_s": triad / 1e9,
+        "wall_seconds": time.perf_counter() - started,
+        "records": [asdict(r) for r in records],
+    }
+
+
+def growth_exponent(xs: list[float], ys: list[float]) -> float:
+    """Least-squares slope of log y against log x."""
+    lx, ly = [math.log(x) for x in xs], [math.log(y) for y in ys]
+    mx, my = sum(lx) / len(lx), sum(ly) / len(ly)
+    return sum((a - mx) * (b - my) for a, b in zip(lx, ly)) / sum((a - mx) ** 2 for a in lx)
+
+
+def format_tables(result: dict[str, Any]) -> str:
+    records = result["records"]
+    fast = [r for r in records if r["path"] == "fast"]
+    ref = {r["scene"]: r for r in records if r["path"] == "reference"}
+    lines = [
+        f"Table 1 shape: seconds per frame ({result['substeps_per_frame']} steps/frame, {result['threads']} threads; "
+        f"STREAM triad {result['triad_gb_per_s']:.1f} GB/s)",
+        "",
+        "| scene | vertices | path | measured | build | solve | sim/frame | CG it/step | build x | solve x | sim x "
+        "| SpMV GB/s | SpMV/triad |",
+        "|---|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
+    ]
+    for f in fast:
+        r, e = ref[f["scene"]], f["extra"]
+        lines.append(
+            f"| {f['scene']} | {f['vertices']} | fast ({f['precision']}) | {f['measured']} | {f['build_s_per_frame']:.3f} "
+            f"| {f['solve_s_per_frame']:.3f} | {f['sim_s_per_frame']:.3f} | {f['cg_iterations_per_step']:.0f} "
+            f"| {e['build_speedup']:.2f} | {e['solve_speedup']:.2f} | {e['sim_speedup']:.2f} "
+            f"| {e['spmv_gb_per_s']:.1f} | {100 * e['spmv_fraction_of_triad']:.0f}% |")
+        lines.append(
+            f"| | | reference | {r['measured']} | {r['build_s_per_frame']:.3f} | {r['solve_s_per_frame']:.3f} "
+            f"| {r['sim_s_per_frame']:.3f} | {r['cg_iterations_per_step']:.0f} | | | | | |")
+    lines += [
+        "",
+        "Same system solved from zero to the same relative residual (the fast path's last step):",
+        "",
+        "| vertices | fast PCG s (it) | Eigen CG double s (it) | Eigen / fast |",
+        "|---:|---:|---:|---:|",
+    ]
+    for f in fast:
+        e = f["extra"]
+        lines.append(
+            f"| {f['vertices']} | {e['same_system_fast_pcg_seconds']:.3f} ({e['same_system_fast_pcg_iterations']}) "
+            f"| {e['same_system_eigen_cg_seconds']:.3f} ({e['same_system_eigen_cg_iterations']}) "
+            f"| {e['eigen_cg_over_fast_pcg']:.2f} |")
+    lines += [
+        "",
+        "Cost growth (fast path):",
+        "",
+        "| vertices | s/step | us per vertex-step | ns per vertex per CG iteration | reference s/step "
+        "| elements (aggregated / one per force) | block bandwidth natural -> RCM | 16-bit columns |",
+        "|---:|---:|---:|---:|---:|---|---|---|",
+    ]
+    for f in fast:
+        r = ref[f["scene"]]
+        per_iteration = f["s_per_step"] / max(f["cg_iterations_per_step"], 1) / f["vertices"] * 1e9
+        lines.append(
+            f"| {f['vertices']} | {f['s_per_step']:.4f} | {1e6 * f['s_per_step'] / f['vertices']:.2f} "
+            f"| {per_iteration:.1f} | {r['s_per_step']:.4f} | {f['force_elements']} / {f['per_force_elements']} "
+            f"({100 * (1 - f['force_elements'] / f['per_force_elements']):.0f}% fewer) "
+            f"| {f['bandwidth_natural']} -> {f['bandwidth']} | {'yes' if f['narrow_columns'] else 'no (32-bit fallback)'} |")
+    if len(fast) > 1:
+        xs = [f["vertices"] for f in fast]
+        lines.append("")
+        lines.append(
+            f"Growth exponent (log-log slope) of fast s/step against vertices: "
+            f"{growth_exponent(xs, [f['s_per_step'] for f in fast]):.2f}; "
+            f"of s per CG iteration: "
+            f"{growth_exponent(xs, [f['s_per_step'] / max(f['cg_iterations_per_step'], 1) for f in fast]):.2f}.")
+    lines.append(f"Bench wall time: {result['wall_seconds']:.0f} s.")
+    return "\n".join(lines)
+
+
+def main(threads: int = 2, json_path: Path | None = None, quick: bool = False) -> dict[str, Any]:
+    result = run_bench(threads=threads, quick=quick)
+    print(format_tables(result))
+    if json_path is not None:
+        json_path.write_text(json.dumps(result, indent=2))
+    return result
+
+
+if __name__ == "__main__":  # pragma: no cover
+    main()
