@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -149,7 +150,8 @@ def run_bench(threads: int = 2, quick: bool = False, log: Callable[[str], None] 
 
     started = time.perf_counter()
     triad = _solver.stream_triad_bandwidth(20_000_000, 10, threads)
-    log(f"STREAM triad ({threads} threads, 3 x 160 MB): {triad / 1e9:.1f} GB/s")
+    log(f"STREAM triad ({threads} threads, 3 x 160 MB): {triad / 1e9:.1f} GB/s; "
+        f"OMP_WAIT_POLICY={os.environ.get('OMP_WAIT_POLICY')}")
     records: list[PathRecord] = []
     for size in QUICK_SIZES if quick else SIZES:
         document = sheet_document(size.side)
