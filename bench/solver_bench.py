@@ -149,6 +149,7 @@ def run_bench(threads: int = 2, quick: bool = False, log: Callable[[str], None] 
     from weft.scene import parse_shot, resolve_scene
 
     started = time.perf_counter()
+    load_before = os.getloadavg()[0]
     triad = _solver.stream_triad_bandwidth(20_000_000, 10, threads)
     log(f"STREAM triad ({threads} threads, 3 x 160 MB): {triad / 1e9:.1f} GB/s; "
         f"OMP_WAIT_POLICY={os.environ.get('OMP_WAIT_POLICY')}")
@@ -177,6 +178,9 @@ def run_bench(threads: int = 2, quick: bool = False, log: Callable[[str], None] 
         "spacing_m": SPACING,
         "triad_gb_per_s": triad / 1e9,
         "wall_seconds": time.perf_counter() - started,
+        # Other jobs on the machine skew every figure; the 1-minute load average says how much.
+        "load_average_start": load_before,
+        "load_average_end": os.getloadavg()[0],
         "records": [asdict(r) for r in records],
     }
 
@@ -247,7 +251,9 @@ def format_tables(result: dict[str, Any]) -> str:
             f"{growth_exponent(xs, [f['s_per_step'] for f in fast]):.2f}; "
             f"of s per CG iteration: "
             f"{growth_exponent(xs, [f['s_per_step'] / max(f['cg_iterations_per_step'], 1) for f in fast]):.2f}.")
-    lines.append(f"Bench wall time: {result['wall_seconds']:.0f} s.")
+    lines.append(
+        f"Bench wall time: {result['wall_seconds']:.0f} s; 1-minute load average {result['load_average_start']:.1f} "
+        f"at start, {result['load_average_end']:.1f} at end (this machine has {os.cpu_count()} cores).")
     return "\n".join(lines)
 
 
