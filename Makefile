@@ -45,6 +45,7 @@ test: test-cpp test-py
 
 # The fast linear system against the reference path (docs/linear-system.md); a few minutes.
 bench: build
+	mkdir -p out
 	$(VENV)/bin/weft bench solver --threads 2 --json out/bench_solver.json
 
 clean:

@@ -38,10 +38,10 @@ class Size:
 
 
 SIZES = [
-    Size("sheet-10k", 100, 3, 2),
-    Size("sheet-40k", 200, 2, 1),
-    Size("sheet-160k", 400, 1, 0, reference_steps=2),
-    Size("sheet-640k", 800, 0, 0, fast_steps=2, reference_steps=1),
+    Size("sheet-10k", 100, 2, 1),
+    Size("sheet-40k", 200, 1, 0, reference_steps=2),
+    Size("sheet-160k", 400, 0, 0, fast_steps=2, reference_steps=1),
+    Size("sheet-640k", 800, 0, 0, fast_steps=1, reference_steps=1),
 ]
 QUICK_SIZES = [Size("sheet-2.5k", 50, 2, 1), Size("sheet-10k", 100, 1, 0, reference_steps=1)]
 
