@@ -2,9 +2,10 @@
 of the seed talk (Eberle 2018), on square sheets of about 10k, 40k, 160k and 640k vertices.
 
 Every sheet has the same 3 cm spacing, cloth and wind, two pinned corners, 24 fps and 4 implicit
-steps per frame, so CG iteration counts stay comparable across sizes. Per size and path: one
-untimed warm-up step, then whole frames (or single steps, scaled to a frame, where the budget
-says so; the table marks it). Then, on the fast path's last system: the SpMV alone (median of
+steps per frame, so CG iteration counts stay comparable across sizes. Per size, both paths get
+one untimed warm-up step, then the same number of whole frames (or of single steps, scaled to a
+frame, where the time budget says so; the table marks it), interleaved fast/reference so that
+both see the same load from other jobs on the machine. Then, on the fast path's last system: the SpMV alone (median of
 repeats, effective bandwidth = bytes it must stream / time) and the same solve done from zero by
 the fast PCG and by Eigen's ConjugateGradient in double to the same relative residual. A
 STREAM triad (C++, same process, same threads) gives the machine's bandwidth.
@@ -30,20 +31,18 @@ MATERIAL = {"density": 0.3, "stretch_warp": 3000.0, "stretch_weft": 2000.0, "she
 @dataclass
 class Size:
     name: str
-    side: int            # vertices per side
-    fast_frames: int     # timed frames of SUBSTEPS steps (0: fast_steps single steps, scaled)
-    reference_frames: int
-    fast_steps: int = 0
-    reference_steps: int = 0
+    side: int        # vertices per side
+    frames: int      # timed frames of SUBSTEPS steps per path (0: `steps` single steps, scaled to a frame)
+    steps: int = 0
 
 
 SIZES = [
-    Size("sheet-10k", 100, 2, 1),
-    Size("sheet-40k", 200, 1, 0, reference_steps=2),
-    Size("sheet-160k", 400, 0, 0, fast_steps=2, reference_steps=1),
-    Size("sheet-640k", 800, 0, 0, fast_steps=1, reference_steps=1),
+    Size("sheet-10k", 100, 2),
+    Size("sheet-40k", 200, 1),
+    Size("sheet-160k", 400, 0, steps=2),
+    Size("sheet-640k", 800, 0, steps=1),
 ]
-QUICK_SIZES = [Size("sheet-2.5k", 50, 2, 1), Size("sheet-10k", 100, 1, 0, reference_steps=1)]
+QUICK_SIZES = [Size("sheet-2.5k", 50, 1), Size("sheet-10k", 100, 0, steps=1)]
 
 
 @dataclass
@@ -78,49 +77,63 @@ def sheet_document(side: int) -> dict[str, Any]:
     )
 
 
-def measure_path(scene: Any, size: Size, path: str, threads: int) -> tuple[PathRecord, Any]:
-    from weft import _solver
-    from weft.scene import build_setup
+class PathRun:
+    """One path's simulation and what has been timed on it so far."""
 
-    sim = _solver.Simulation(build_setup(scene, threads, path))
-    dt = 1.0 / FPS
-    h = dt / SUBSTEPS
-    sim.advance_frame(0.0, h, 1)  # warm-up: first touch of every buffer
-    frames = size.fast_frames if path == "fast" else size.reference_frames
-    steps = size.fast_steps if path == "fast" else size.reference_steps
-    build = solve = total = 0.0
-    iterations = 0
-    if frames > 0:
-        for k in range(frames):
-            t = sim.advance_frame(h + k * dt, dt, SUBSTEPS)
-            build += t.build_seconds
-            solve += t.solve_seconds
-            total += t.total_seconds
-            iterations += t.cg_iterations
-        build, solve, total = build / frames, solve / frames, total / frames
-        per_step_iterations = iterations / (frames * SUBSTEPS)
-        measured = f"{frames} frame{'s' if frames > 1 else ''}"
-    else:
-        overhead = 0.0
-        for k in range(steps):
-            t = sim.advance_frame(h * (k + 1), h, 1)
-            build += t.build_seconds
-            solve += t.solve_seconds
-            overhead += t.total_seconds - t.build_seconds - t.solve_seconds  # once-per-frame energies
-            iterations += t.cg_iterations
-        build, solve = SUBSTEPS * build / steps, SUBSTEPS * solve / steps
-        total = build + solve + overhead / steps
-        per_step_iterations = iterations / steps
-        measured = f"{steps} of {SUBSTEPS} steps, scaled"
-    info = _solver.linear_system_info(sim)
-    record = PathRecord(
-        scene=size.name, vertices=scene.vertex_count, path=path, precision=info.precision, threads=threads,
-        measured=measured, build_s_per_frame=build, solve_s_per_frame=solve, sim_s_per_frame=total,
-        s_per_step=total / SUBSTEPS, cg_iterations_per_step=per_step_iterations,
-        force_elements=info.force_elements, per_force_elements=info.per_force_elements,
-        bandwidth_natural=info.bandwidth_natural, bandwidth=info.bandwidth, narrow_columns=info.narrow_columns,
-    )
-    return record, sim
+    def __init__(self, scene: Any, path: str, threads: int) -> None:
+        from weft import _solver
+        from weft.scene import build_setup
+
+        self.path, self.threads = path, threads
+        self.sim = _solver.Simulation(build_setup(scene, threads, path))
+        self.build = self.solve = self.overhead = 0.0
+        self.iterations = self.steps = 0
+        self.time = 0.0
+
+    def advance(self, duration: float, substeps: int) -> None:
+        t = self.sim.advance_frame(self.time, duration, substeps)
+        self.time += duration
+        self.build += t.build_seconds
+        self.solve += t.solve_seconds
+        self.overhead += t.total_seconds - t.build_seconds - t.solve_seconds  # once per frame (energies)
+        self.iterations += t.cg_iterations
+        self.steps += substeps
+
+
+def measure_size(scene: Any, size: Size, threads: int) -> tuple[PathRecord, PathRecord, Any]:
+    """Both paths, their timed frames or steps interleaved so that both see the same machine load."""
+    from weft import _solver
+
+    runs = [PathRun(scene, "fast", threads), PathRun(scene, "reference", threads)]
+    h = 1.0 / FPS / SUBSTEPS
+    for run in runs:  # warm-up step: first touch of every buffer
+        run.sim.advance_frame(0.0, h, 1)
+        run.time = h
+    for _ in range(size.frames or size.steps):
+        for run in runs:
+            if size.frames:
+                run.advance(SUBSTEPS * h, SUBSTEPS)
+            else:
+                run.advance(h, 1)
+    records = []
+    for run in runs:
+        frames = run.steps / SUBSTEPS
+        overhead_per_frame = run.overhead / (size.frames or size.steps)
+        build, solve = run.build / frames, run.solve / frames
+        total = build + solve + overhead_per_frame
+        measured = f"{size.frames} frame{'s' if size.frames > 1 else ''}" if size.frames else \
+            f"{size.steps} of {SUBSTEPS} steps, scaled"
+        info = _solver.linear_system_info(run.sim)
+        records.append(PathRecord(
+            scene=size.name, vertices=scene.vertex_count, path=run.path, precision=info.precision, threads=threads,
+            measured=measured, build_s_per_frame=build, solve_s_per_frame=solve, sim_s_per_frame=total,
+            s_per_step=total / SUBSTEPS, cg_iterations_per_step=run.iterations / run.steps,
+            force_elements=info.force_elements, per_force_elements=info.per_force_elements,
+            bandwidth_natural=info.bandwidth_natural, bandwidth=info.bandwidth, narrow_columns=info.narrow_columns,
+        ))
+    fast_sim = runs[0].sim
+    del runs
+    return records[0], records[1], fast_sim
 
 
 def fast_extras(sim: Any, triad: float, tolerance: float) -> dict[str, Any]:
@@ -158,13 +171,10 @@ def run_bench(threads: int = 2, quick: bool = False, log: Callable[[str], None] 
         document = sheet_document(size.side)
         scene = resolve_scene(parse_shot(document), Path.cwd())
         del document
-        fast, sim = measure_path(scene, size, "fast", threads)
+        fast, reference, sim = measure_size(scene, size, threads)
         fast.extra = fast_extras(sim, triad, 1e-5)
         del sim
-        log(f"{size.name}: fast {fast.sim_s_per_frame:.3f} s/frame")
-        reference, sim = measure_path(scene, size, "reference", threads)
-        del sim
-        log(f"{size.name}: reference {reference.sim_s_per_frame:.3f} s/frame")
+        log(f"{size.name}: fast {fast.sim_s_per_frame:.3f} s/frame, reference {reference.sim_s_per_frame:.3f} s/frame")
         fast.extra.update({
             "build_speedup": reference.build_s_per_frame / fast.build_s_per_frame,
             "solve_speedup": reference.solve_s_per_frame / fast.solve_s_per_frame,

@@ -180,8 +180,10 @@ LinearSystemInfo ReferenceLinearSystem::info() const {
   LinearSystemInfo i;
   i.path = "reference";
   i.precision = "float64";
-  i.force_elements = 2LL * mesh_.faces.rows() + static_cast<long long>(mesh_.hinges.size()) + mesh_.vertex_count;
-  i.per_force_elements = i.force_elements;
+  // One element per triangle (stretch and shear together), per hinge and per particle.
+  i.force_elements = mesh_.faces.rows() + static_cast<long long>(mesh_.hinges.size()) + mesh_.vertex_count;
+  i.per_force_elements = 2LL * mesh_.faces.rows() + static_cast<long long>(mesh_.hinges.size()) +
+                         mesh_.vertex_count * (model_.environment().air_drag > 0.0 ? 2LL : 1LL);
   long long blocks = assembler_.matrix().nonZeros() / 9;
   i.blocks = blocks;
   return i;
