@@ -46,6 +46,19 @@ ForceElementLayout build_force_elements(const ClothMesh& mesh, bool has_drag, in
   return layout;
 }
 
+void permute_elements(ForceElementLayout& layout, const std::vector<int>& order) {
+  auto apply = [&](auto& v) {
+    auto copy = v;
+    for (size_t k = 0; k < order.size(); ++k) v[k] = copy[order[k]];
+  };
+  apply(layout.vertices);
+  apply(layout.count);
+  apply(layout.hinge);
+  apply(layout.face);
+  apply(layout.face_slot);
+  apply(layout.owned);
+}
+
 template <class Scalar>
 void compute_force_elements(const ForceModel& model, const ForceElementLayout& layout, const Positions& x,
                             const Positions& v, double time, double h, int threads, ForceElementStorage<Scalar>& out) {

@@ -38,6 +38,9 @@ struct ForceElementLayout {
 // (they are constraints of the filtered solve here, not forces).
 ForceElementLayout build_force_elements(const ClothMesh& mesh, bool has_drag, int pinned_vertices);
 
+// Reorders the elements: element k becomes the old element order[k].
+void permute_elements(ForceElementLayout& layout, const std::vector<int>& order);
+
 template <class Scalar>
 struct ForceElementStorage {
   std::vector<Scalar> blocks;     // element e, slot s: 9 values at (e * kElementSlots + s) * 9

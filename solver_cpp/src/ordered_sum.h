@@ -10,7 +10,9 @@
 
 namespace weft {
 
-constexpr std::int64_t kReductionChunk = 4096;
+// Small enough that a 10k-vertex system splits evenly over a few threads (the SpMV and the CG
+// passes are scheduled by these chunks too).
+constexpr std::int64_t kReductionChunk = 1024;
 
 // term_range(begin, end) returns std::array<double, K>: the K sums over [begin, end), in order.
 template <int K, class TermRange>
