@@ -16,7 +16,7 @@ def fake_result() -> dict:
         records.append(dict(common, path="fast", precision="float32", measured="1 frame", build_s_per_frame=0.1,
                             solve_s_per_frame=0.2, sim_s_per_frame=0.31, s_per_step=0.0775,
                             cg_iterations_per_step=300.0, extra={
-                                "spmv_gb_per_s": 10.0, "spmv_fraction_of_triad": 0.6, "build_speedup": 3.0,
+                                "spmv_gb_per_s": 10.0, "triad_gb_per_s": 16.0, "spmv_fraction_of_triad": 0.6, "build_speedup": 3.0,
                                 "solve_speedup": 4.0, "sim_speedup": 3.5, "same_system_fast_pcg_seconds": 0.05,
                                 "same_system_fast_pcg_iterations": 300, "same_system_eigen_cg_seconds": 0.1,
                                 "same_system_eigen_cg_iterations": 320, "eigen_cg_over_fast_pcg": 2.0}))
