@@ -50,5 +50,10 @@ test: test-cpp test-py
 bench-service: build
 	$(PY) bench/service_bench.py
 
+# The fast linear system against the reference path (docs/linear-system.md); a few minutes.
+bench: build
+	mkdir -p out
+	$(VENV)/bin/weft bench solver --threads 2 --json out/bench_solver.json
+
 clean:
 	rm -rf build out scenes/generated

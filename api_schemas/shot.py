@@ -164,9 +164,13 @@ class Environment(StrictModel):
 class SolverSettings(StrictModel):
     cg_tolerance: PositiveFloat = Field(1e-5, lt=1.0, description="Relative residual at which CG stops.")
     cg_max_iterations: int = Field(500, ge=1, le=100_000)
-    matrix_precision: Literal["float64", "float32"] = "float64"
+    matrix_precision: Literal["float64", "float32"] = Field(
+        "float32", description="Value type of the fast path's block matrix (the reference path is always float64)."
+    )
     linear_system: Literal["reference", "fast"] = Field(
-        "reference", description="Assembly and solve path; 'fast' arrives with the fast linear system."
+        "fast",
+        description="Assembly and solve path: 'fast' (fixed-pattern BCRS, RCM, pre-filtered PCG) or 'reference' "
+        "(Eigen sparse matrix, Eigen ConjugateGradient); see docs/linear-system.md.",
     )
 
 

@@ -124,3 +124,22 @@ def test_stiff_sheet_is_stable_at_one_substep_per_frame() -> None:
     # Bounded motion: the sheet hangs below its pins and stays near its size.
     assert positions[:, 1].max() <= 1e-6 and positions[:, 1].min() > -2.0
     assert np.abs(positions[:, [0, 2]]).max() < 2.0
+
+
+def test_overflowing_forces_fail_the_step_instead_of_freezing(tmp_path) -> None:
+    """Forces that overflow must surface as a solver failure at that frame, never as a quiet
+    zero update (the PCG used to return dv = 0 for a non-finite right-hand side)."""
+    import pytest
+
+    from weft import _solver
+    from weft.runner import ShotRunner, SolverFailure
+
+    from conftest import make_scene
+
+    doc = sheet_shot("overflow", 4, 4, 0.2, 0.2, frames=5, gravity=(0.0, -1e300, 0.0))
+    with pytest.raises(SolverFailure) as failure:
+        ShotRunner(make_scene(doc), tmp_path / "c.h5").run()
+    assert failure.value.frame == 2 and "non-finite" in failure.value.reason
+    _, sim = make_sim(doc)
+    with pytest.raises(_solver.SolverDivergence):
+        sim.advance_frame(0.0, 1.0 / 24.0, 1)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import sys
+from enum import Enum
 from pathlib import Path
 from typing import Annotated, Optional
 
@@ -20,6 +21,13 @@ app = typer.Typer(
     pretty_exceptions_enable=False,
 )
 console = Console(stderr=True)
+
+
+class LinearSystemChoice(str, Enum):
+    fast = "fast"
+    reference = "reference"
+
+
 out = Console()
 
 
@@ -28,11 +36,13 @@ def _fail(message: str, code: int = 2) -> None:
     raise typer.Exit(code)
 
 
-def _load_scene(shot_path: Path):  # type: ignore[no-untyped-def]
+def _load_scene(shot_path: Path, linear_system: Optional[str] = None):  # type: ignore[no-untyped-def]
     from weft.scene import ShotError, ShotValidationError, load_shot_file, resolve_scene
 
     try:
         shot = load_shot_file(shot_path)
+        if linear_system is not None:  # command-line override of the shot's solver.linear_system
+            shot = shot.model_copy(update={"solver": shot.solver.model_copy(update={"linear_system": linear_system})})
         return resolve_scene(shot, shot_path.parent)
     except ShotValidationError as exc:
         lines = "\n".join(f"  {e.field}: {e.problem}" for e in exc.errors)
@@ -59,12 +69,16 @@ def run(
     threads: Annotated[int, typer.Option("--threads", min=1, max=256, help="Solver threads")] = 1,
     resume: Annotated[bool, typer.Option("--resume", help="Continue an interrupted cache")] = False,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar")] = False,
+    linear_system: Annotated[
+        Optional[LinearSystemChoice],
+        typer.Option("--linear-system", help="Override the shot's solver.linear_system (fast or reference)"),
+    ] = None,
 ) -> None:
     """Simulate a shot into an HDF5 cache."""
     from weft.cache import CacheError
     from weft.runner import FrameRecord, ShotRunner, SolverFailure
 
-    scene = _load_scene(shot)
+    scene = _load_scene(shot, linear_system.value if linear_system else None)
     if output.exists() and not resume:
         _fail(f"{output} exists; remove it or pass --resume to continue it")
     runner = ShotRunner(scene, output, threads=threads, frames=frames, resume=resume)
@@ -145,51 +159,9 @@ def info(
     out.print(table)
 
 
-bench_app = typer.Typer(help="Benchmarks.", no_args_is_help=True)
-app.add_typer(bench_app, name="bench")
+from weft.bench_cli import bench_app  # noqa: E402
 
-
-@bench_app.command("ccd")
-def bench_ccd(
-    queries: Annotated[int, typer.Option("--queries", min=1000, help="Randomized queries per kind")] = 100_000,
-    sizes: Annotated[str, typer.Option("--sizes", help="Twisting-sheet grid sizes n (n x n vertices)")] = "8,12,16,24",
-    frames: Annotated[int, typer.Option("--frames", min=3, help="Frames of the twist (full turn)")] = 121,
-    substeps: Annotated[int, typer.Option("--substeps", min=1)] = 2,
-    threads: Annotated[int, typer.Option("--threads", min=1, max=256)] = 1,
-    as_json: Annotated[bool, typer.Option("--json", help="Machine-readable output")] = False,
-) -> None:
-    """CCD queries per second and false negatives on the randomized exact-truth set; per-frame
-    collision cost against vertex count on the twisting sheet."""
-    from weft.bench_ccd import prefer_passive_openmp
-
-    prefer_passive_openmp()
-    from weft.bench_ccd import query_benchmark, twist_benchmark
-
-    query_rows = query_benchmark(queries, threads)
-    size_list = [int(s) for s in sizes.split(",") if s.strip()]
-    twist_rows = twist_benchmark(size_list, frames, substeps, threads) if size_list else []
-    if as_json:
-        out.print_json(json.dumps({"queries": query_rows, "twist": twist_rows}))
-        return
-    table = Table(title=f"CCD queries ({threads} thread(s))", title_justify="left")
-    for column in ("query", "queries", "queries/s", "false negatives", "false positives", "FP rate", "mean boxes"):
-        table.add_column(column, justify="right")
-    for r in query_rows:
-        table.add_row(r["query"], str(r["queries"]), f"{r['queries_per_second']:,.0f}", str(r["false_negatives"]),
-                      str(r["false_positives"]), f"{r['false_positive_rate']:.4f}", f"{r['mean_boxes']:.1f}")
-    out.print(table)
-    if twist_rows:
-        table = Table(title=f"Twisting sheet, {frames} frames x {substeps} substeps", title_justify="left")
-        for column in ("vertices", "collision s/frame", "max", "broad/prox/ccd/resp", "total s/frame", "CCD hits",
-                       "zones", "max intersections"):
-            table.add_column(column, justify="right")
-        for r in twist_rows:
-            table.add_row(str(r["vertices"]), f"{r['collision_seconds_per_frame']:.4f}",
-                          f"{r['collision_seconds_max']:.4f}",
-                          "/".join(f"{v:.4f}" for v in r["broad_proximity_ccd_response_per_frame"]),
-                          f"{r['total_seconds_per_frame']:.4f}", str(r["ccd_hits"]), str(r["impact_zones"]),
-                          str(r["max_intersections"]))
-        out.print(table)
+app.add_typer(bench_app)
 
 
 def main() -> None:  # pragma: no cover

@@ -422,8 +422,8 @@ def _load_body(base_dir: Path, shot: Shot, i: int) -> BodyArrays:
     return BodyArrays(body.name, faces.astype(np.int32), frames)
 
 
-def build_setup(scene: Scene, threads: int = 1) -> Any:
-    """The C++ SimulationSetup for a scene."""
+def build_setup(scene: Scene, threads: int = 1, linear_system: str | None = None) -> Any:
+    """The C++ SimulationSetup for a scene. linear_system ('fast' or 'reference') overrides the shot's."""
     from weft import _solver
 
     shot = scene.shot
@@ -456,6 +456,12 @@ def build_setup(scene: Scene, threads: int = 1) -> Any:
     solver.cg_tolerance = shot.solver.cg_tolerance
     solver.cg_max_iterations = shot.solver.cg_max_iterations
     solver.threads = threads
+    solver.linear_system = {"fast": _solver.LinearSystemKind.FAST, "reference": _solver.LinearSystemKind.REFERENCE}[
+        linear_system or shot.solver.linear_system
+    ]
+    solver.matrix_precision = {"float32": _solver.MatrixPrecision.FLOAT32, "float64": _solver.MatrixPrecision.FLOAT64}[
+        shot.solver.matrix_precision
+    ]
     setup.solver = solver
     setup.collision = collision_settings(scene)
     return setup

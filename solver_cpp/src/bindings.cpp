@@ -10,6 +10,7 @@ namespace py = pybind11;
 using namespace weft;
 
 void bind_collision(py::module_& m);  // bindings_collision.cpp
+void bind_linear_system(py::module_& m);  // bindings_linear.cpp
 
 PYBIND11_MODULE(_solver, m) {
   m.doc() = "weft implicit cloth solver (C++ core)";
@@ -35,11 +36,15 @@ PYBIND11_MODULE(_solver, m) {
       .def_readwrite("gust_frequency", &Environment::gust_frequency)
       .def("wind_at", &Environment::wind_at);
 
+  bind_linear_system(m);
+
   py::class_<SolverSettings>(m, "SolverSettings")
       .def(py::init<>())
       .def_readwrite("cg_tolerance", &SolverSettings::cg_tolerance)
       .def_readwrite("cg_max_iterations", &SolverSettings::cg_max_iterations)
-      .def_readwrite("threads", &SolverSettings::threads);
+      .def_readwrite("threads", &SolverSettings::threads)
+      .def_readwrite("linear_system", &SolverSettings::linear_system)
+      .def_readwrite("matrix_precision", &SolverSettings::matrix_precision);
 
   py::class_<SimulationSetup>(m, "SimulationSetup")
       .def(py::init<>())

@@ -1,5 +1,7 @@
 #include "forces.h"
 
+#include "ordered_sum.h"
+
 #include <cmath>
 
 #include "dual.h"
@@ -145,6 +147,83 @@ ForceModel::ForceModel(const ClothMesh& mesh, ClothMaterials materials, Environm
                                materials_.face_damping[mesh.hinge_faces[h][1]]);
 }
 
+MembraneBlocks ForceModel::membrane(int f, const Positions& x, const Positions& v, unsigned terms,
+                                    bool project_spd) const {
+  const bool stretch = terms & kStretch, shear = terms & kShear, damping = terms & kDamping;
+  const auto face = mesh_.faces.row(f);
+  const Vec3 x0 = row3(x, face[0]), x1 = row3(x, face[1]), x2 = row3(x, face[2]);
+  const double kw = stretch ? materials_.face_stretch_warp[f] : 0.0;
+  const double kf = stretch ? materials_.face_stretch_weft[f] : 0.0;
+  const double ks = shear ? materials_.face_shear[f] : 0.0;
+  const MembraneResult m =
+      membrane_element(x0, x1, x2, mesh_.rest_dm_inverse[f], mesh_.rest_area[f], kw, kf, ks, project_spd);
+  MembraneBlocks out;
+  out.energy = m.energy;
+  out.force = -m.gradient;
+  out.damping.setZero();
+  if (damping && materials_.face_damping[f] > 0.0) {
+    // Damping acts along every condition's gradient whether or not its elastic force is
+    // selected (terms subsets are for verification; the integrator selects all).
+    const bool all_elastic = stretch && shear;
+    const Mat9& gauss_newton =
+        all_elastic ? m.gauss_newton
+                    : membrane_element(x0, x1, x2, mesh_.rest_dm_inverse[f], mesh_.rest_area[f],
+                                       materials_.face_stretch_warp[f], materials_.face_stretch_weft[f],
+                                       materials_.face_shear[f], true)
+                          .gauss_newton;
+    out.damping = materials_.face_damping[f] * gauss_newton;
+    Vec9 v_local;
+    for (int i = 0; i < 3; ++i) v_local.segment<3>(3 * i) = row3(v, face[i]);
+    out.force -= out.damping * v_local;
+  }
+  out.stiffness = m.hessian;
+  return out;
+}
+
+HingeBlocks ForceModel::hinge(int h, const Positions& x, const Positions& v, unsigned terms, bool project_spd) const {
+  const bool bend = terms & kBend, damping = terms & kDamping;
+  const Hinge& hv = mesh_.hinges[h];
+  const bool damp_hinge = damping && hinge_damping_[h] > 0.0;
+  HingeBlocks out;
+  if ((!bend && !damp_hinge) || materials_.hinge_bend[h] == 0.0) {
+    out.energy = 0.0;
+    out.force.setZero();
+    out.stiffness.setZero();
+    out.damping.setZero();
+    return out;
+  }
+  HingeResult b = hinge_element(row3(x, hv[0]), row3(x, hv[1]), row3(x, hv[2]), row3(x, hv[3]),
+                                mesh_.hinge_rest_angle[h], mesh_.hinge_weight[h], materials_.hinge_bend[h],
+                                project_spd || !bend);
+  if (!bend) {  // damping only: keep the gradient direction, drop the elastic part
+    b.energy = 0.0;
+    b.gradient.setZero();
+    b.hessian.setZero();
+  }
+  out.energy = b.energy;
+  out.force = -b.gradient;
+  out.damping.setZero();
+  if (damp_hinge) {
+    out.damping = hinge_damping_[h] * b.gauss_newton;
+    Vec12 v_local;
+    for (int i = 0; i < 4; ++i) v_local.segment<3>(3 * i) = row3(v, hv[i]);
+    out.force -= out.damping * v_local;
+  }
+  out.stiffness = b.hessian;
+  return out;
+}
+
+VertexForce ForceModel::vertex(int i, const Positions& v, const Vec3& wind, unsigned terms) const {
+  const double drag = (terms & kDrag) ? environment_.air_drag : 0.0;
+  const double c = drag * mesh_.vertex_rest_area[i];
+  VertexForce out;
+  out.force.setZero();
+  if (terms & kGravity) out.force += materials_.vertex_mass[i] * environment_.gravity;
+  if (c > 0.0) out.force -= c * (row3(v, i) - wind);
+  out.damping = c;
+  return out;
+}
+
 void ForceModel::compute(const Positions& x, const Positions& v, double time, unsigned terms, bool project_spd,
                          int threads, ElementBuffers& out) const {
   const int face_count = static_cast<int>(mesh_.faces.rows());
@@ -158,90 +237,36 @@ void ForceModel::compute(const Positions& x, const Positions& v, double time, un
   out.hinge_damping.resize(hinge_count);
   out.vertex_force.resize(vertex_count);
   out.vertex_damping.resize(vertex_count);
-  const bool stretch = terms & kStretch, shear = terms & kShear, bend = terms & kBend;
-  const bool damping = terms & kDamping;
-  double membrane_energy = 0.0, bend_energy = 0.0;
+  // Per-element energies, summed in a fixed order afterwards (bitwise independent of threads).
+  std::vector<double> energy(static_cast<size_t>(face_count) + hinge_count);
+  const Vec3 wind = environment_.wind_at(time);
 
 #pragma omp parallel num_threads(threads)
   {
-#pragma omp for schedule(static) reduction(+ : membrane_energy)
+#pragma omp for schedule(static)
     for (int f = 0; f < face_count; ++f) {
-      const auto face = mesh_.faces.row(f);
-      const Vec3 x0 = row3(x, face[0]), x1 = row3(x, face[1]), x2 = row3(x, face[2]);
-      const double kw = stretch ? materials_.face_stretch_warp[f] : 0.0;
-      const double kf = stretch ? materials_.face_stretch_weft[f] : 0.0;
-      const double ks = shear ? materials_.face_shear[f] : 0.0;
-      const MembraneResult m = membrane_element(x0, x1, x2, mesh_.rest_dm_inverse[f], mesh_.rest_area[f], kw, kf, ks,
-                                                project_spd);
-      membrane_energy += m.energy;
-      Vec9 force = -m.gradient;
-      Mat9 damp = Mat9::Zero();
-      if (damping && materials_.face_damping[f] > 0.0) {
-        // Damping acts along every condition's gradient whether or not its elastic force is
-        // selected (terms subsets are for verification; the integrator selects all).
-        const bool all_elastic = stretch && shear;
-        const Mat9& gauss_newton =
-            all_elastic ? m.gauss_newton
-                        : membrane_element(x0, x1, x2, mesh_.rest_dm_inverse[f], mesh_.rest_area[f],
-                                           materials_.face_stretch_warp[f], materials_.face_stretch_weft[f],
-                                           materials_.face_shear[f], true)
-                              .gauss_newton;
-        damp = materials_.face_damping[f] * gauss_newton;
-        Vec9 v_local;
-        for (int i = 0; i < 3; ++i) v_local.segment<3>(3 * i) = row3(v, face[i]);
-        force -= damp * v_local;
-      }
-      out.membrane_force[f] = force;
-      out.membrane_stiffness[f] = m.hessian;
-      out.membrane_damping[f] = damp;
+      MembraneBlocks m = membrane(f, x, v, terms, project_spd);
+      energy[f] = m.energy;
+      out.membrane_force[f] = m.force;
+      out.membrane_stiffness[f] = m.stiffness;
+      out.membrane_damping[f] = m.damping;
     }
-
-#pragma omp for schedule(static) reduction(+ : bend_energy)
+#pragma omp for schedule(static)
     for (int h = 0; h < hinge_count; ++h) {
-      const Hinge& hv = mesh_.hinges[h];
-      const bool damp_hinge = damping && hinge_damping_[h] > 0.0;
-      if ((!bend && !damp_hinge) || materials_.hinge_bend[h] == 0.0) {
-        out.hinge_force[h].setZero();
-        out.hinge_stiffness[h].setZero();
-        out.hinge_damping[h].setZero();
-        continue;
-      }
-      HingeResult b = hinge_element(row3(x, hv[0]), row3(x, hv[1]), row3(x, hv[2]), row3(x, hv[3]),
-                                    mesh_.hinge_rest_angle[h], mesh_.hinge_weight[h], materials_.hinge_bend[h],
-                                    project_spd || !bend);
-      if (!bend) {  // damping only: keep the gradient direction, drop the elastic part
-        b.energy = 0.0;
-        b.gradient.setZero();
-        b.hessian.setZero();
-      }
-      bend_energy += b.energy;
-      Vec12 force = -b.gradient;
-      Mat12 damp = Mat12::Zero();
-      if (damp_hinge) {
-        damp = hinge_damping_[h] * b.gauss_newton;
-        Vec12 v_local;
-        for (int i = 0; i < 4; ++i) v_local.segment<3>(3 * i) = row3(v, hv[i]);
-        force -= damp * v_local;
-      }
-      out.hinge_force[h] = force;
-      out.hinge_stiffness[h] = b.hessian;
-      out.hinge_damping[h] = damp;
+      HingeBlocks b = hinge(h, x, v, terms, project_spd);
+      energy[face_count + h] = b.energy;
+      out.hinge_force[h] = b.force;
+      out.hinge_stiffness[h] = b.stiffness;
+      out.hinge_damping[h] = b.damping;
     }
-
-    const Vec3 wind = environment_.wind_at(time);
-    const double drag = (terms & kDrag) ? environment_.air_drag : 0.0;
-    const bool gravity = terms & kGravity;
 #pragma omp for schedule(static)
     for (int i = 0; i < vertex_count; ++i) {
-      const double c = drag * mesh_.vertex_rest_area[i];
-      Vec3 f = Vec3::Zero();
-      if (gravity) f += materials_.vertex_mass[i] * environment_.gravity;
-      if (c > 0.0) f -= c * (row3(v, i) - wind);
-      out.vertex_force[i] = f;
-      out.vertex_damping[i] = c;
+      const VertexForce p = vertex(i, v, wind, terms);
+      out.vertex_force[i] = p.force;
+      out.vertex_damping[i] = p.damping;
     }
   }
-  out.elastic_energy = membrane_energy + bend_energy;
+  out.elastic_energy = ordered_sum(energy, threads);
 }
 
 double ForceModel::elastic_energy(const Positions& x, unsigned terms) const {

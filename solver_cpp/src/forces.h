@@ -81,6 +81,22 @@ struct HingeResult {
 HingeResult hinge_element(const Vec3& x0, const Vec3& x1, const Vec3& x2, const Vec3& x3, double rest_angle,
                           double weight, double k_bend, bool project_spd);
 
+// One force element's contribution: force, stiffness (-dF/dx) and damping (-dF/dv) blocks.
+struct MembraneBlocks {
+  double energy;
+  Vec9 force;
+  Mat9 stiffness, damping;
+};
+struct HingeBlocks {
+  double energy;
+  Vec12 force;
+  Mat12 stiffness, damping;
+};
+struct VertexForce {  // gravity + drag; -dF/dv = damping * I
+  Vec3 force;
+  double damping;
+};
+
 class ForceModel {
  public:
   ForceModel(const ClothMesh& mesh, ClothMaterials materials, Environment environment);
@@ -88,6 +104,12 @@ class ForceModel {
   // Fills buffers for state (x, v) at time t. terms selects what is included.
   void compute(const Positions& x, const Positions& v, double time, unsigned terms, bool project_spd,
                int threads, ElementBuffers& out) const;
+
+  // Single elements (what compute() runs per face, hinge and vertex); also used by the fast
+  // linear system's aggregated force elements. wind = environment().wind_at(time).
+  MembraneBlocks membrane(int face, const Positions& x, const Positions& v, unsigned terms, bool project_spd) const;
+  HingeBlocks hinge(int hinge, const Positions& x, const Positions& v, unsigned terms, bool project_spd) const;
+  VertexForce vertex(int vertex, const Positions& v, const Vec3& wind, unsigned terms) const;
 
   double elastic_energy(const Positions& x, unsigned terms) const;
   double gravity_energy(const Positions& x) const;

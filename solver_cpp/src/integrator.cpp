@@ -51,7 +51,6 @@ Simulation::Simulation(const SimulationSetup& s)
     if (!(materials.vertex_mass[i] > 0.0))
       throw std::invalid_argument("vertex " + std::to_string(i) + " has no mass (it belongs to no face)");
   force_model_ = std::make_unique<ForceModel>(mesh_, std::move(materials), s.environment);
-  assembler_ = std::make_unique<ReferenceAssembler>(mesh_);
 
   if (s.body_faces.size() != s.body_positions.size())
     throw std::invalid_argument("body_faces and body_positions differ in length");
@@ -78,6 +77,10 @@ Simulation::Simulation(const SimulationSetup& s)
   }
   dv_.setZero(3 * n);
   filter_.reset(n);
+  LinearSystemOptions linear{settings_.linear_system, settings_.matrix_precision, settings_.threads,
+                             PcgSettings{settings_.cg_tolerance, settings_.cg_max_iterations}};
+  linear_ = make_linear_system(mesh_, *force_model_, linear,
+                               static_cast<int>(pins_.fixed.size() + pins_.attached.size()));
   if (s.collision.enabled) {
     std::vector<int> pinned;
     for (const FixedPin& pin : pins_.fixed) pinned.push_back(pin.vertex);
@@ -127,28 +130,14 @@ void Simulation::build_filter(double h, double alpha_end) {
 Simulation::StepTimings Simulation::step(double time, double h, double alpha_end) {
   StepTimings t;
   const auto build_start = Clock::now();
-  force_model_->compute(x_, v_, time, kAllForces, /*project_spd=*/true, settings_.threads, elements_);
-  assembler_->assemble(elements_, vertex_mass(), v_, h);
+  linear_->build(x_, v_, time, h);
   build_filter(h, alpha_end);
   t.build = seconds_since(build_start);
   if (collisions_)  // cloth/body contacts as prescribed normal velocities in the filtered solve
     collisions_->constrain_contacts(x_, v_, h, bodies_, step_alpha_start_, alpha_end, filter_);
 
   const auto solve_start = Clock::now();
-  const SparseMatrix& a = assembler_->matrix();
-  const int threads = settings_.threads;
-  auto apply = [&a, threads](const VectorX& in, VectorX& out) {
-    out.resize(in.size());
-    const int rows = static_cast<int>(a.rows());
-#pragma omp parallel for schedule(static) num_threads(threads)
-    for (int r = 0; r < rows; ++r) {
-      double sum = 0.0;
-      for (SparseMatrix::InnerIterator it(a, r); it; ++it) sum += it.value() * in[it.col()];
-      out[r] = sum;
-    }
-  };
-  PcgSettings pcg{settings_.cg_tolerance, settings_.cg_max_iterations};
-  const PcgStats stats = prefiltered_pcg(apply, assembler_->diagonal_blocks(), filter_, assembler_->rhs(), dv_, pcg);
+  const PcgStats stats = linear_->solve(filter_, dv_);
   flat(v_) += dv_;
   if (collisions_) {  // collision stage: makes x + h v collision-free
     const auto collision_start = Clock::now();

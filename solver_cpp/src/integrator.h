@@ -11,6 +11,7 @@
 #include "constraints.h"
 #include "forces.h"
 #include "linear_system.h"
+#include "linear_system_path.h"
 
 namespace weft {
 
@@ -18,6 +19,8 @@ struct SolverSettings {
   double cg_tolerance = 1e-5;
   int cg_max_iterations = 500;
   int threads = 1;
+  LinearSystemKind linear_system = LinearSystemKind::kFast;  // fast | reference (linear_system_path.h)
+  MatrixPrecision matrix_precision = MatrixPrecision::kFloat32;  // fast path's matrix values
 };
 
 // Everything needed to build a simulation, as flat arrays (cloth pieces concatenated).
@@ -92,6 +95,8 @@ class Simulation {
   const SolverSettings& settings() const { return settings_; }
   const CollisionSystem* collision_system() const { return collisions_.get(); }
   const std::vector<KinematicBody>& bodies() const { return bodies_; }
+  LinearSystemPath& linear_system() { return *linear_; }
+  const ConstraintFilter& constraint_filter() const { return filter_; }  // of the last step
 
  private:
   struct StepTimings {
@@ -107,7 +112,7 @@ class Simulation {
   SolverSettings settings_;
   ClothMesh mesh_;
   std::unique_ptr<ForceModel> force_model_;
-  std::unique_ptr<ReferenceAssembler> assembler_;
+  std::unique_ptr<LinearSystemPath> linear_;
   std::vector<KinematicBody> bodies_;
   std::vector<Positions> body_scratch_;
   PinSet pins_;

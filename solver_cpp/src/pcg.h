@@ -10,6 +10,10 @@
 
 #include <Eigen/Dense>
 #include <cmath>
+#include <limits>
+#include <type_traits>
+
+#include "ordered_sum.h"
 
 #include "types.h"
 
@@ -54,63 +58,140 @@ struct PcgStats {
   bool converged = false;
 };
 
-// apply_matrix(in, out) computes out = A in. x holds an initial guess on entry and the
-// solution on exit.
+// apply_matrix(in, out) computes out = A in (out already sized). It may instead take a third
+// argument, double* chunk_dots, and then also write the fixed-order partial sums of in . out per
+// chunk of kReductionChunk vertices (or ignore a null pointer): the dot of the CG step is then
+// fused into the matrix pass. x holds an initial guess on
+// entry and the solution on exit. Vector updates run on `threads` threads; every dot product is
+// a fixed-order chunked sum (ordered_sum.h), so the iterates are bitwise independent of the
+// thread count. The filter is applied only at its constrained vertices.
 template <class ApplyMatrix>
 PcgStats prefiltered_pcg(const ApplyMatrix& apply_matrix, const std::vector<Mat3>& diagonal_blocks,
-                         const ConstraintFilter& filter, const VectorX& b, VectorX& x, const PcgSettings& settings) {
+                         const ConstraintFilter& filter, const VectorX& b, VectorX& x, const PcgSettings& settings,
+                         int threads = 1) {
   const Eigen::Index n = b.size();
-  const int vertex_count = static_cast<int>(n / 3);
+  const std::int64_t vertex_count = n / 3;
   PcgStats stats;
-  VectorX tmp(n), r(n), z(n), p(n), q(n);
+  VectorX tmp(n), r(n), z(n), p(n), q(n), y(n);
+
+  std::vector<int> constrained;
+  if (filter.constrained_vertices > 0)
+    for (std::int64_t i = 0; i < vertex_count; ++i)
+      if (filter.projection[i] != Mat3::Identity()) constrained.push_back(static_cast<int>(i));
+  auto apply_filter = [&](VectorX& vec) {
+    for (int i : constrained) vec.segment<3>(3 * i) = filter.projection[i] * vec.segment<3>(3 * i);
+  };
+  // Sums over vertex ranges [begin, end) of a per-vertex term, K at a time, fixed order.
+  auto vertex_sums = [&](auto k_const, auto&& term) {
+    constexpr int K = decltype(k_const)::value;
+    return ordered_sums<K>(vertex_count, threads, [&](std::int64_t begin, std::int64_t end) {
+      std::array<double, K> s{};
+      for (std::int64_t i = begin; i < end; ++i) term(i, s);
+      return s;
+    });
+  };
+  using One = std::integral_constant<int, 1>;
+  using Two = std::integral_constant<int, 2>;
+  constexpr bool fused = std::is_invocable_v<const ApplyMatrix&, const VectorX&, VectorX&, double*>;
+  auto multiply = [&](const VectorX& in, VectorX& out) {
+    if constexpr (fused)
+      apply_matrix(in, out, nullptr);
+    else
+      apply_matrix(in, out);
+  };
+  // out = S A in; returns in . out (fixed order).
+  std::vector<double> chunk_dots(static_cast<size_t>((vertex_count + kReductionChunk - 1) / kReductionChunk));
+  std::vector<Vec3> unfiltered;
+  auto multiply_filtered_dot = [&](const VectorX& in, VectorX& out) {
+    if constexpr (fused) {
+      apply_matrix(in, out, chunk_dots.data());
+      unfiltered.clear();
+      for (int i : constrained) unfiltered.push_back(out.segment<3>(3 * i));
+      apply_filter(out);
+      double dot = 0.0;
+      for (double c : chunk_dots) dot += c;
+      for (size_t k = 0; k < constrained.size(); ++k) {  // the chunks summed A in; correct to S A in
+        const Vec3 xi = in.segment<3>(3 * constrained[k]);
+        dot += xi.dot(out.segment<3>(3 * constrained[k])) - xi.dot(unfiltered[k]);
+      }
+      return dot;
+    } else {
+      apply_matrix(in, out);
+      apply_filter(out);
+      return vertex_sums(One{}, [&](std::int64_t i, std::array<double, 1>& s) {
+        s[0] += in.segment<3>(3 * i).dot(out.segment<3>(3 * i));
+      })[0];
+    }
+  };
 
   // Right-hand side of the filtered system.
-  apply_matrix(filter.prescribed, tmp);
+  multiply(filter.prescribed, tmp);
   VectorX rhs = b - tmp;
-  filter.apply(rhs);
-  const double rhs_norm = rhs.norm();
+  apply_filter(rhs);
+  const double rhs_norm = std::sqrt(vertex_sums(One{}, [&](std::int64_t i, std::array<double, 1>& s) {
+    s[0] += rhs.segment<3>(3 * i).squaredNorm();
+  })[0]);
 
   // Block-Jacobi preconditioner of S A S + I - S.
   std::vector<Mat3> inverse_blocks(vertex_count);
-  for (int i = 0; i < vertex_count; ++i) {
+#pragma omp parallel for schedule(static) num_threads(threads)
+  for (std::int64_t i = 0; i < vertex_count; ++i) inverse_blocks[i] = diagonal_blocks[i].inverse();
+  for (int i : constrained) {
     const Mat3& s = filter.projection[i];
-    const Mat3 block = s * diagonal_blocks[i] * s + (Mat3::Identity() - s);
-    inverse_blocks[i] = block.inverse();
+    inverse_blocks[i] = (s * diagonal_blocks[i] * s + (Mat3::Identity() - s)).inverse();
   }
-  auto precondition = [&](const VectorX& in, VectorX& out) {
-    for (int i = 0; i < vertex_count; ++i) out.segment<3>(3 * i) = inverse_blocks[i] * in.segment<3>(3 * i);
-  };
 
-  VectorX y = x;
-  filter.apply(y);
-  if (rhs_norm == 0.0 || !std::isfinite(rhs_norm)) {
-    y.setZero();
-    x = y + filter.prescribed;
-    stats.converged = rhs_norm == 0.0;
-    stats.relative_residual = rhs_norm == 0.0 ? 0.0 : rhs_norm;
+  y = x;
+  apply_filter(y);
+  if (!std::isfinite(rhs_norm)) {
+    // Non-finite forces or matrix: report it as such (a non-finite solution) rather than a
+    // quiet zero update, so the integrator fails the step with a clear reason.
+    x.setConstant(std::numeric_limits<double>::quiet_NaN());
+    stats.converged = false;
+    stats.relative_residual = rhs_norm;
     return stats;
   }
-  apply_matrix(y, tmp);
-  filter.apply(tmp);
-  r = rhs - tmp;
-  double residual_norm = r.norm();
-  precondition(r, z);
-  p = z;
-  double rz = r.dot(z);
+  if (rhs_norm == 0.0) {
+    y.setZero();
+    x = y + filter.prescribed;
+    stats.converged = true;
+    stats.relative_residual = 0.0;
+    return stats;
+  }
+  multiply(y, tmp);
+  apply_filter(tmp);
+  // r = rhs - S A S y; z = P r; p = z.
+  auto start = vertex_sums(Two{}, [&](std::int64_t i, std::array<double, 2>& s) {
+    const Vec3 ri = rhs.segment<3>(3 * i) - tmp.segment<3>(3 * i);
+    const Vec3 zi = inverse_blocks[i] * ri;
+    r.segment<3>(3 * i) = ri;
+    z.segment<3>(3 * i) = zi;
+    p.segment<3>(3 * i) = zi;
+    s[0] += ri.squaredNorm();
+    s[1] += ri.dot(zi);
+  });
+  double residual_norm = std::sqrt(start[0]);
+  double rz = start[1];
   while (residual_norm > settings.tolerance * rhs_norm && stats.iterations < settings.max_iterations) {
-    apply_matrix(p, q);
-    filter.apply(q);
-    const double pq = p.dot(q);
+    const double pq = multiply_filtered_dot(p, q);
     if (!(pq > 0.0)) break;  // loss of positive definiteness or breakdown: keep what we have
     const double alpha = rz / pq;
-    y += alpha * p;
-    r -= alpha * q;
-    residual_norm = r.norm();
+    // y += alpha p; r -= alpha q; z = P r; with |r|^2 and r.z in the same pass.
+    const auto sums = vertex_sums(Two{}, [&](std::int64_t i, std::array<double, 2>& s) {
+      y.segment<3>(3 * i) += alpha * p.segment<3>(3 * i);
+      const Vec3 ri = r.segment<3>(3 * i) - alpha * q.segment<3>(3 * i);
+      const Vec3 zi = inverse_blocks[i] * ri;
+      r.segment<3>(3 * i) = ri;
+      z.segment<3>(3 * i) = zi;
+      s[0] += ri.squaredNorm();
+      s[1] += ri.dot(zi);
+    });
+    residual_norm = std::sqrt(sums[0]);
     ++stats.iterations;
-    precondition(r, z);
-    const double rz_next = r.dot(z);
-    p = z + (rz_next / rz) * p;
-    rz = rz_next;
+    const double beta = sums[1] / rz;
+    rz = sums[1];
+#pragma omp parallel for schedule(static) num_threads(threads)
+    for (Eigen::Index k = 0; k < n; ++k) p[k] = z[k] + beta * p[k];
   }
   stats.relative_residual = residual_norm / rhs_norm;
   stats.converged = residual_norm <= settings.tolerance * rhs_norm;

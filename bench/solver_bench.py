@@ -1,0 +1,283 @@
+"""`weft bench solver`: the fast linear system against the reference path, shaped like Table 1
+of the seed talk (Eberle 2018), on square sheets of about 10k, 40k, 160k and 640k vertices.
+
+Every sheet has the same 3 cm spacing, cloth and wind, two pinned corners, 24 fps and 4 implicit
+steps per frame, so CG iteration counts stay comparable across sizes. Per size, both paths get
+one untimed warm-up step, then the same number of whole frames (or of single steps, scaled to a
+frame, where the time budget says so; the table marks it), interleaved fast/reference so that
+both see the same load from other jobs on the machine. Then, on the fast path's last system: the SpMV alone (median of
+repeats, effective bandwidth = bytes it must stream / time) and the same solve done from zero by
+the fast PCG and by Eigen's ConjugateGradient in double to the same relative residual. A
+STREAM triad (C++, same process, same threads) gives the machine's bandwidth: once at the start
+and again right after each SpMV measurement, which the SpMV/triad column uses.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any, Callable
+
+SPACING = 0.03
+FPS = 24.0
+SUBSTEPS = 4
+MATERIAL = {"density": 0.3, "stretch_warp": 3000.0, "stretch_weft": 2000.0, "shear": 150.0, "bend": 2e-5,
+            "damping": 0.001}
+
+
+@dataclass
+class Size:
+    name: str
+    side: int        # vertices per side
+    frames: int      # timed frames of SUBSTEPS steps per path (0: `steps` single steps, scaled to a frame)
+    steps: int = 0
+
+
+SIZES = [
+    Size("sheet-10k", 100, 2),
+    Size("sheet-40k", 200, 1),
+    Size("sheet-160k", 400, 0, steps=2),
+    Size("sheet-640k", 800, 0, steps=1),
+]
+QUICK_SIZES = [Size("sheet-2.5k", 50, 1), Size("sheet-10k", 100, 0, steps=1)]
+
+
+@dataclass
+class PathRecord:
+    scene: str
+    vertices: int
+    path: str
+    precision: str
+    threads: int
+    measured: str                 # what was timed, e.g. "2 frames" or "1 of 4 steps, scaled"
+    build_s_per_frame: float
+    solve_s_per_frame: float
+    sim_s_per_frame: float
+    s_per_step: float
+    cg_iterations_per_step: float
+    force_elements: int
+    per_force_elements: int
+    bandwidth_natural: int
+    bandwidth: int
+    narrow_columns: bool
+    extra: dict[str, Any] = field(default_factory=dict)
+
+
+def sheet_document(side: int) -> dict[str, Any]:
+    from weft.scene_builders import sheet_shot
+
+    width = SPACING * (side - 1)
+    return sheet_shot(
+        f"bench-{side}", side, side, width, width, pins=[0, side - 1], fps=FPS, frames=2, substeps=SUBSTEPS,
+        air_drag=0.4, wind={"velocity": [1.5, 0.0, 3.0], "gust_amplitude": 0.5, "gust_frequency": 0.7},
+        material=MATERIAL, solver={"cg_tolerance": 1e-5, "cg_max_iterations": 2000},
+    )
+
+
+class PathRun:
+    """One path's simulation and what has been timed on it so far."""
+
+    def __init__(self, scene: Any, path: str, threads: int) -> None:
+        from weft import _solver
+        from weft.scene import build_setup
+
+        self.path, self.threads = path, threads
+        self.sim = _solver.Simulation(build_setup(scene, threads, path))
+        self.build = self.solve = self.overhead = 0.0
+        self.iterations = self.steps = 0
+        self.time = 0.0
+
+    def advance(self, duration: float, substeps: int) -> None:
+        t = self.sim.advance_frame(self.time, duration, substeps)
+        self.time += duration
+        self.build += t.build_seconds
+        self.solve += t.solve_seconds
+        self.overhead += t.total_seconds - t.build_seconds - t.solve_seconds  # once per frame (energies)
+        self.iterations += t.cg_iterations
+        self.steps += substeps
+
+
+def measure_size(scene: Any, size: Size, threads: int) -> tuple[PathRecord, PathRecord, Any]:
+    """Both paths, their timed frames or steps interleaved so that both see the same machine load."""
+    from weft import _solver
+
+    runs = [PathRun(scene, "fast", threads), PathRun(scene, "reference", threads)]
+    h = 1.0 / FPS / SUBSTEPS
+    for run in runs:  # warm-up step: first touch of every buffer
+        run.sim.advance_frame(0.0, h, 1)
+        run.time = h
+    for _ in range(size.frames or size.steps):
+        for run in runs:
+            if size.frames:
+                run.advance(SUBSTEPS * h, SUBSTEPS)
+            else:
+                run.advance(h, 1)
+    records = []
+    for run in runs:
+        frames = run.steps / SUBSTEPS
+        overhead_per_frame = run.overhead / (size.frames or size.steps)
+        build, solve = run.build / frames, run.solve / frames
+        total = build + solve + overhead_per_frame
+        measured = f"{size.frames} frame{'s' if size.frames > 1 else ''}" if size.frames else \
+            f"{size.steps} of {SUBSTEPS} steps, scaled"
+        info = _solver.linear_system_info(run.sim)
+        records.append(PathRecord(
+            scene=size.name, vertices=scene.vertex_count, path=run.path, precision=info.precision, threads=threads,
+            measured=measured, build_s_per_frame=build, solve_s_per_frame=solve, sim_s_per_frame=total,
+            s_per_step=total / SUBSTEPS, cg_iterations_per_step=run.iterations / run.steps,
+            force_elements=info.force_elements, per_force_elements=info.per_force_elements,
+            bandwidth_natural=info.bandwidth_natural, bandwidth=info.bandwidth, narrow_columns=info.narrow_columns,
+        ))
+    fast_sim = runs[0].sim
+    del runs
+    return records[0], records[1], fast_sim
+
+
+def fast_extras(sim: Any, threads: int, tolerance: float) -> dict[str, Any]:
+    from weft import _solver
+
+    seconds, nbytes = _solver.time_spmv(sim, 15)
+    # The triad again, right after this SpMV: other jobs' load changes within a run, and the
+    # ratio is only meaningful between figures taken under the same load.
+    triad = _solver.stream_triad_bandwidth(20_000_000, 5, threads)
+    compare = _solver.compare_with_eigen_cg(sim, tolerance)
+    return {
+        "spmv_seconds": seconds,
+        "spmv_bytes": nbytes,
+        "spmv_gb_per_s": nbytes / seconds / 1e9,
+        "triad_gb_per_s": triad / 1e9,
+        "spmv_fraction_of_triad": nbytes / seconds / triad,
+        "same_system_fast_pcg_seconds": compare["fast_seconds"],
+        "same_system_fast_pcg_iterations": compare["fast_iterations"],
+        "same_system_fast_pcg_residual": compare["fast_residual"],
+        "same_system_eigen_cg_seconds": compare["eigen_seconds"],
+        "same_system_eigen_cg_iterations": compare["eigen_iterations"],
+        "same_system_eigen_cg_residual": compare["eigen_residual"],
+        "eigen_cg_over_fast_pcg": compare["eigen_seconds"] / compare["fast_seconds"],
+    }
+
+
+def run_bench(threads: int = 2, quick: bool = False, log: Callable[[str], None] = print) -> dict[str, Any]:
+    from weft import _solver
+    from weft.scene import parse_shot, resolve_scene
+
+    started = time.perf_counter()
+    load_before = os.getloadavg()[0]
+    triad = _solver.stream_triad_bandwidth(20_000_000, 10, threads)
+    log(f"STREAM triad ({threads} threads, 3 x 160 MB): {triad / 1e9:.1f} GB/s; "
+        f"OMP_WAIT_POLICY={os.environ.get('OMP_WAIT_POLICY')}")
+    records: list[PathRecord] = []
+    for size in QUICK_SIZES if quick else SIZES:
+        document = sheet_document(size.side)
+        scene = resolve_scene(parse_shot(document), Path.cwd())
+        del document
+        fast, reference, sim = measure_size(scene, size, threads)
+        fast.extra = fast_extras(sim, threads, 1e-5)
+        del sim
+        log(f"{size.name}: fast {fast.sim_s_per_frame:.3f} s/frame, reference {reference.sim_s_per_frame:.3f} s/frame")
+        fast.extra.update({
+            "build_speedup": reference.build_s_per_frame / fast.build_s_per_frame,
+            "solve_speedup": reference.solve_s_per_frame / fast.solve_s_per_frame,
+            "sim_speedup": reference.sim_s_per_frame / fast.sim_s_per_frame,
+        })
+        records += [fast, reference]
+    return {
+        "threads": threads,
+        "substeps_per_frame": SUBSTEPS,
+        "fps": FPS,
+        "spacing_m": SPACING,
+        "triad_gb_per_s": triad / 1e9,
+        "wall_seconds": time.perf_counter() - started,
+        # Other jobs on the machine skew every figure; the 1-minute load average says how much.
+        "load_average_start": load_before,
+        "load_average_end": os.getloadavg()[0],
+        "records": [asdict(r) for r in records],
+    }
+
+
+def growth_exponent(xs: list[float], ys: list[float]) -> float:
+    """Least-squares slope of log y against log x."""
+    lx, ly = [math.log(x) for x in xs], [math.log(y) for y in ys]
+    mx, my = sum(lx) / len(lx), sum(ly) / len(ly)
+    return sum((a - mx) * (b - my) for a, b in zip(lx, ly)) / sum((a - mx) ** 2 for a in lx)
+
+
+def format_tables(result: dict[str, Any]) -> str:
+    records = result["records"]
+    fast = [r for r in records if r["path"] == "fast"]
+    ref = {r["scene"]: r for r in records if r["path"] == "reference"}
+    lines = [
+        f"Table 1 shape: seconds per frame ({result['substeps_per_frame']} steps/frame, {result['threads']} threads; "
+        f"STREAM triad {result['triad_gb_per_s']:.1f} GB/s at the start, again beside each SpMV)",
+        "",
+        "| scene | vertices | path | measured | build | solve | sim/frame | CG it/step | build x | solve x | sim x "
+        "| SpMV GB/s | triad GB/s | SpMV/triad |",
+        "|---|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
+    ]
+    for f in fast:
+        r, e = ref[f["scene"]], f["extra"]
+        lines.append(
+            f"| {f['scene']} | {f['vertices']} | fast ({f['precision']}) | {f['measured']} | {f['build_s_per_frame']:.3f} "
+            f"| {f['solve_s_per_frame']:.3f} | {f['sim_s_per_frame']:.3f} | {f['cg_iterations_per_step']:.0f} "
+            f"| {e['build_speedup']:.2f} | {e['solve_speedup']:.2f} | {e['sim_speedup']:.2f} "
+            f"| {e['spmv_gb_per_s']:.1f} | {e['triad_gb_per_s']:.1f} | {100 * e['spmv_fraction_of_triad']:.0f}% |")
+        lines.append(
+            f"| | | reference | {r['measured']} | {r['build_s_per_frame']:.3f} | {r['solve_s_per_frame']:.3f} "
+            f"| {r['sim_s_per_frame']:.3f} | {r['cg_iterations_per_step']:.0f} | | | | | | |")
+    lines += [
+        "",
+        "Same system solved from zero to the same relative residual (the fast path's last step):",
+        "",
+        "| vertices | fast PCG s (it) | Eigen CG double s (it) | Eigen / fast |",
+        "|---:|---:|---:|---:|",
+    ]
+    for f in fast:
+        e = f["extra"]
+        lines.append(
+            f"| {f['vertices']} | {e['same_system_fast_pcg_seconds']:.3f} ({e['same_system_fast_pcg_iterations']}) "
+            f"| {e['same_system_eigen_cg_seconds']:.3f} ({e['same_system_eigen_cg_iterations']}) "
+            f"| {e['eigen_cg_over_fast_pcg']:.2f} |")
+    lines += [
+        "",
+        "Cost growth (fast path):",
+        "",
+        "| vertices | s/step | us per vertex-step | ns per vertex per CG iteration | reference s/step "
+        "| elements (aggregated / one per force) | block bandwidth natural -> RCM | 16-bit columns |",
+        "|---:|---:|---:|---:|---:|---|---|---|",
+    ]
+    for f in fast:
+        r = ref[f["scene"]]
+        per_iteration = f["s_per_step"] / max(f["cg_iterations_per_step"], 1) / f["vertices"] * 1e9
+        lines.append(
+            f"| {f['vertices']} | {f['s_per_step']:.4f} | {1e6 * f['s_per_step'] / f['vertices']:.2f} "
+            f"| {per_iteration:.1f} | {r['s_per_step']:.4f} | {f['force_elements']} / {f['per_force_elements']} "
+            f"({100 * (1 - f['force_elements'] / f['per_force_elements']):.0f}% fewer) "
+            f"| {f['bandwidth_natural']} -> {f['bandwidth']} | {'yes' if f['narrow_columns'] else 'no (32-bit fallback)'} |")
+    if len(fast) > 1:
+        xs = [f["vertices"] for f in fast]
+        lines.append("")
+        lines.append(
+            f"Growth exponent (log-log slope) of fast s/step against vertices: "
+            f"{growth_exponent(xs, [f['s_per_step'] for f in fast]):.2f}; "
+            f"of s per CG iteration: "
+            f"{growth_exponent(xs, [f['s_per_step'] / max(f['cg_iterations_per_step'], 1) for f in fast]):.2f}.")
+    lines.append(
+        f"Bench wall time: {result['wall_seconds']:.0f} s; 1-minute load average {result['load_average_start']:.1f} "
+        f"at start, {result['load_average_end']:.1f} at end (this machine has {os.cpu_count()} cores).")
+    return "\n".join(lines)
+
+
+def main(threads: int = 2, json_path: Path | None = None, quick: bool = False) -> dict[str, Any]:
+    result = run_bench(threads=threads, quick=quick)
+    print(format_tables(result))
+    if json_path is not None:
+        json_path.write_text(json.dumps(result, indent=2))
+    return result
+
+
+if __name__ == "__main__":  # pragma: no cover
+    main()

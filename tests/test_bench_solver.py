@@ -1,0 +1,40 @@
+"""`weft bench solver`: the table formatter and the CLI wiring (the bench itself takes minutes)."""
+
+from __future__ import annotations
+
+from typer.testing import CliRunner
+
+from bench.solver_bench import format_tables, growth_exponent
+from weft.cli import app
+
+
+def fake_result() -> dict:
+    records = []
+    for vertices in (10_000, 40_000):
+        common = dict(scene=f"sheet-{vertices}", vertices=vertices, threads=2, force_elements=3 * vertices,
+                      per_force_elements=9 * vertices, bandwidth_natural=200, bandwidth=200, narrow_columns=True)
+        records.append(dict(common, path="fast", precision="float32", measured="1 frame", build_s_per_frame=0.1,
+                            solve_s_per_frame=0.2, sim_s_per_frame=0.31, s_per_step=0.0775,
+                            cg_iterations_per_step=300.0, extra={
+                                "spmv_gb_per_s": 10.0, "triad_gb_per_s": 16.0, "spmv_fraction_of_triad": 0.6, "build_speedup": 3.0,
+                                "solve_speedup": 4.0, "sim_speedup": 3.5, "same_system_fast_pcg_seconds": 0.05,
+                                "same_system_fast_pcg_iterations": 300, "same_system_eigen_cg_seconds": 0.1,
+                                "same_system_eigen_cg_iterations": 320, "eigen_cg_over_fast_pcg": 2.0}))
+        records.append(dict(common, path="reference", precision="float64", measured="1 of 4 steps, scaled",
+                            build_s_per_frame=0.3, solve_s_per_frame=0.8, sim_s_per_frame=1.1, s_per_step=0.275,
+                            cg_iterations_per_step=320.0, extra={}))
+    return {"threads": 2, "substeps_per_frame": 4, "triad_gb_per_s": 16.0, "wall_seconds": 10.0,
+            "load_average_start": 1.0, "load_average_end": 1.5, "records": records}
+
+
+def test_format_tables_has_every_section() -> None:
+    text = format_tables(fake_result())
+    assert "| sheet-10000 | 10000 | fast (float32) |" in text
+    assert "Eigen CG double" in text and "Growth exponent" in text and "67% fewer" in text
+    assert abs(growth_exponent([1.0, 2.0, 4.0], [3.0, 6.0, 12.0]) - 1.0) < 1e-12
+
+
+def test_bench_solver_command_is_registered() -> None:
+    result = CliRunner().invoke(app, ["bench", "solver", "--help"])
+    assert result.exit_code == 0
+    assert "--json" in result.output and "--threads" in result.output
