@@ -45,6 +45,19 @@ Mat3 stretch_block(const Vec3& w_hat, double length, double stiffness, bool proj
   if (project_spd && curvature < 0.0) curvature = 0.0;
   return stiffness * (outer + curvature * (Mat3::Identity() - outer));
 }
+// Columns w_u, w_v of the deformation gradient on the rest (u,v) frame.
+void deformation_columns(const Vec3& x0, const Vec3& x1, const Vec3& x2, const Mat2& dm_inverse, Vec3& w_u,
+                         Vec3& w_v) {
+  const Vec3 d1 = x1 - x0, d2 = x2 - x0;
+  w_u = d1 * dm_inverse(0, 0) + d2 * dm_inverse(1, 0);
+  w_v = d1 * dm_inverse(0, 1) + d2 * dm_inverse(1, 1);
+}
+
+double membrane_energy_density(double len_u, double len_v, double shear, double k_warp, double k_weft,
+                               double k_shear) {
+  return 0.5 * k_warp * (len_u - 1.0) * (len_u - 1.0) + 0.5 * k_weft * (len_v - 1.0) * (len_v - 1.0) +
+         0.5 * k_shear * shear * shear;
+}
 }  // namespace
 
 Vec3 Environment::wind_at(double time) const {
@@ -55,9 +68,8 @@ Vec3 Environment::wind_at(double time) const {
 MembraneResult membrane_element(const Vec3& x0, const Vec3& x1, const Vec3& x2, const Mat2& dm_inverse,
                                 double area, double k_warp, double k_weft, double k_shear, bool project_spd) {
   MembraneResult r;
-  const Vec3 d1 = x1 - x0, d2 = x2 - x0;
-  const Vec3 w_u = d1 * dm_inverse(0, 0) + d2 * dm_inverse(1, 0);
-  const Vec3 w_v = d1 * dm_inverse(0, 1) + d2 * dm_inverse(1, 1);
+  Vec3 w_u, w_v;
+  deformation_columns(x0, x1, x2, dm_inverse, w_u, w_v);
   // dw_u/dx_i = a_u[i] I, dw_v/dx_i = a_v[i] I
   const double a_u[3] = {-(dm_inverse(0, 0) + dm_inverse(1, 0)), dm_inverse(0, 0), dm_inverse(1, 0)};
   const double a_v[3] = {-(dm_inverse(0, 1) + dm_inverse(1, 1)), dm_inverse(0, 1), dm_inverse(1, 1)};
@@ -66,8 +78,7 @@ MembraneResult membrane_element(const Vec3& x0, const Vec3& x1, const Vec3& x2, 
   const Vec3 u_hat = len_u > 0.0 ? Vec3(w_u / len_u) : Vec3::Zero();
   const Vec3 v_hat = len_v > 0.0 ? Vec3(w_v / len_v) : Vec3::Zero();
 
-  r.energy = area * (0.5 * k_warp * (len_u - 1.0) * (len_u - 1.0) + 0.5 * k_weft * (len_v - 1.0) * (len_v - 1.0) +
-                     0.5 * k_shear * shear * shear);
+  r.energy = membrane_energy_density(len_u, len_v, shear, k_warp, k_weft, k_shear) * area;
 
   const Vec3 grad_wu = area * (k_warp * (len_u - 1.0) * u_hat + k_shear * shear * w_v);
   const Vec3 grad_wv = area * (k_weft * (len_v - 1.0) * v_hat + k_shear * shear * w_u);
@@ -277,9 +288,9 @@ double ForceModel::elastic_energy(const Positions& x, unsigned terms) const {
     const double kw = (terms & kStretch) ? materials_.face_stretch_warp[f] : 0.0;
     const double kf = (terms & kStretch) ? materials_.face_stretch_weft[f] : 0.0;
     const double ks = (terms & kShear) ? materials_.face_shear[f] : 0.0;
-    energy += membrane_element(row3(x, face[0]), row3(x, face[1]), row3(x, face[2]), mesh_.rest_dm_inverse[f],
-                               mesh_.rest_area[f], kw, kf, ks, true)
-                  .energy;
+    Vec3 w_u, w_v;  // energy only: no gradient or Hessian
+    deformation_columns(row3(x, face[0]), row3(x, face[1]), row3(x, face[2]), mesh_.rest_dm_inverse[f], w_u, w_v);
+    energy += membrane_energy_density(w_u.norm(), w_v.norm(), w_u.dot(w_v), kw, kf, ks) * mesh_.rest_area[f];
   }
   if (terms & kBend) {
     for (size_t h = 0; h < mesh_.hinges.size(); ++h) {

@@ -118,7 +118,6 @@ class Simulation {
   PinSet pins_;
   Positions x_, v_;
   VectorX dv_;  // last velocity change, warm start for the next solve
-  ElementBuffers elements_;
   ConstraintFilter filter_;
   // Collision stage (collision_response.h): null when the scene has collisions switched off.
   std::unique_ptr<CollisionSystem> collisions_;
