@@ -5,6 +5,7 @@ in the cache."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from weft.cache import open_cache_reader
 from weft.collision_scenes import bar_mesh
@@ -18,18 +19,17 @@ from test_collisions import convex_depth, simulate
 RADIUS = 0.01  # the "bone"
 
 
-def bone_shot(n: int = 21, frames: int = 16, patch: bool = True, gia: bool | None = None) -> dict:
+def bone_shot(n: int = 21, frames: int = 16, patch: bool = True, gia: bool | None = None, depth: float = 0.003) -> dict:
     """A 0.3 m sheet 2 mm above a horizontal closed cylinder (radius 1 cm, along x, 0.5 m
     long) at the origin; with `patch`, the sheet's middle row over |x| <= 6 cm is pushed down
-    through the cylinder's top (its vertices start 7 mm inside, their triangles cut the
-    cylinder). The two edges parallel to the cylinder are pinned at their start height (an
+    through the cylinder's top to height `depth` (inside the cylinder; their triangles cut it). The two edges parallel to the cylinder are pinned at their start height (an
     unpinned sheet slides off a 1 cm bar), so gravity and the sheet's tension press it onto
     the cylinder."""
     y0 = RADIUS + 0.002
     vertices, faces = grid_sheet(n, n, 0.3, 0.3, "xz", origin=(-0.15, y0, -0.15))
     if patch:
         pushed = (np.abs(vertices[:, 2]) < 1e-9) & (np.abs(vertices[:, 0]) <= 0.06 + 1e-9)
-        vertices[pushed, 1] = 0.003
+        vertices[pushed, 1] = depth
     pins = list(range(n)) + list(range(n * (n - 1), n * n))  # the rows at z = -0.15 and z = +0.15
     doc = sheet_shot("bone", n, n, 0.3, 0.3, plane="xz", frames=frames, substeps=4, pins=pins,
                      material={"friction": 0.5, "damping": 0.01}, air_drag=0.2)
@@ -41,8 +41,9 @@ def bone_shot(n: int = 21, frames: int = 16, patch: bool = True, gia: bool | Non
     return doc
 
 
-def test_sheet_pushed_through_a_bone_recovers_to_the_majority_side():
-    doc = bone_shot()
+@pytest.mark.parametrize("depth", [0.003, -0.007])  # 7 mm in; past the axis, 3 mm from the bottom
+def test_sheet_pushed_through_a_bone_recovers_to_the_majority_side(depth):
+    doc = bone_shot(depth=depth)
     bar_v = np.asarray(doc["bodies"][0]["mesh"]["vertices"])
     bar_f = np.asarray(doc["bodies"][0]["mesh"]["faces"])
     start = np.asarray(doc["cloth"][0]["mesh"]["vertices"])
@@ -60,10 +61,11 @@ def test_sheet_pushed_through_a_bone_recovers_to_the_majority_side():
     assert all(c == 0 for c in counts[first_clean:]), counts
     assert pushed > 0 and coloured[0] > 0 and coloured[-1] == 0, (pushed, coloured)
     # Wholly outside, on the side most of the sheet started (above): every vertex over the
-    # cylinder is above its axis and rests on it; the sheet sags on both sides of it.
+    # cylinder is above its axis and near it (the popped patch may stand ~2 cm up as a bump);
+    # the sheet sags on both sides of it.
     assert convex_depth(x, bar_v, bar_f).min() > 0.0
     over = np.abs(x[:, 2]) < RADIUS
-    assert over.any() and (x[over, 1] > 0.0).all() and (x[over, 1] < RADIUS + 0.01).all()
+    assert over.any() and (x[over, 1] > 0.0).all() and (x[over, 1] < 0.05).all()
     assert x[:, 1].min() < RADIUS
 
 

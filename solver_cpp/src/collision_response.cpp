@@ -29,7 +29,7 @@ constexpr double kCcdSeparationFraction = 0.05;
 constexpr double kTargetSeparationFraction = 0.1;
 // GIA recovery: a contour vertex inside a body gets an outward normal velocity (relative to the
 // body) of at least this fraction of (depth + thickness) per step.
-constexpr double kRecoveryRate = 0.5;
+constexpr double kRecoveryRate = 1.0;
 
 struct UnionFind {
   std::vector<int> parent;
@@ -177,20 +177,50 @@ void CollisionSystem::gia_recover() {
       const bool contour = std::any_of(cloth_neighbours_[i].begin(), cloth_neighbours_[i].end(),
                                        [&](int j) { return !state.inside[j]; });
       if (!contour) continue;
-      // Exit through the nearest body face (lowest face id on ties: deterministic).
+      // Exit on the side of the uncoloured neighbours: along the mean direction to them, through
+      // the first body face that ray crosses; else (no such direction or face) through the
+      // nearest body face. Lowest face id on ties: deterministic.
       const Vec3 p = row3(*x_, i);
+      Vec3 towards = Vec3::Zero();
+      for (int j : cloth_neighbours_[i])
+        if (!state.inside[j]) towards += row3(*x_, j) - p;
+      const int body_faces = static_cast<int>(state.faces.rows());
+      auto corner = [&](int f, int k) { return row3(state.start, state.faces(f, k)); };
       double best = std::numeric_limits<double>::infinity();
       int best_face = -1;
       Vec3 best_bary = Vec3::Zero();
-      for (int f = 0; f < static_cast<int>(state.faces.rows()); ++f) {
-        Vec3 bary;
-        const double d = point_triangle_distance(p, row3(state.start, state.faces(f, 0)),
-                                                 row3(state.start, state.faces(f, 1)),
-                                                 row3(state.start, state.faces(f, 2)), bary);
-        if (d < best) {
-          best = d;
+      Vec3 n = Vec3::Zero();
+      if (towards.norm() > 1e-9 * vertex_thickness_[i]) {
+        const Vec3 dir = towards.normalized();
+        for (int f = 0; f < body_faces; ++f) {  // Moller-Trumbore
+          const Vec3 a = corner(f, 0), e1 = corner(f, 1) - a, e2 = corner(f, 2) - a;
+          const Vec3 pv = dir.cross(e2);
+          const double det = e1.dot(pv);
+          if (std::abs(det) <= 1e-300) continue;
+          const Vec3 tv = p - a;
+          const double u = tv.dot(pv) / det;
+          const Vec3 qv = tv.cross(e1);
+          const double w = dir.dot(qv) / det;
+          const double t = e2.dot(qv) / det;
+          // A small tolerance so that a ray through a shared edge or corner is not missed.
+          constexpr double kEdge = 1e-9;
+          if (u < -kEdge || w < -kEdge || u + w > 1.0 + kEdge || !(t > 0.0) || t >= best) continue;
+          best = t;
           best_face = f;
-          best_bary = bary;
+          best_bary = Vec3(1.0 - u - w, u, w).cwiseMax(0.0);
+          best_bary /= best_bary.sum();
+        }
+        if (best_face >= 0) n = dir;
+      }
+      if (best_face < 0) {
+        for (int f = 0; f < body_faces; ++f) {
+          Vec3 bary;
+          const double d = point_triangle_distance(p, corner(f, 0), corner(f, 1), corner(f, 2), bary);
+          if (d < best) {
+            best = d;
+            best_face = f;
+            best_bary = bary;
+          }
         }
       }
       if (best_face < 0) continue;
@@ -200,12 +230,8 @@ void CollisionSystem::gia_recover() {
         q += best_bary[k] * row3(state.start, bv);
         vb += best_bary[k] * (row3(state.end, bv) - row3(state.start, bv)) / h_;
       }
-      Vec3 n = q - p;
-      if (n.norm() <= 1e-12) {  // on the surface: the face normal, pointing away from the neighbours' mean
-        const Vec3 a = row3(state.start, state.faces(best_face, 0));
-        n = (row3(state.start, state.faces(best_face, 1)) - a).cross(row3(state.start, state.faces(best_face, 2)) - a);
-        if (n.norm() <= 0.0) continue;
-      }
+      if (n.squaredNorm() == 0.0) n = q - p;
+      if (n.norm() <= 1e-12) continue;  // on the surface with no direction to leave by
       n.normalize();
       const double target = kRecoveryRate * (best + vertex_thickness_[i]) / h_;
       const double vn = n.dot(row3(*v_, i) - vb);
