@@ -19,16 +19,18 @@ from test_collisions import convex_depth, simulate
 RADIUS = 0.01  # the "bone"
 
 
-def bone_shot(n: int = 21, frames: int = 16, patch: bool = True, gia: bool | None = None, depth: float = 0.003) -> dict:
+def bone_shot(n: int = 21, frames: int = 16, patch: bool = True, gia: bool | None = None, depth: float = 0.003,
+              half_width: float = 0.0) -> dict:
     """A 0.3 m sheet 2 mm above a horizontal closed cylinder (radius 1 cm, along x, 0.5 m
     long) at the origin; with `patch`, the sheet's middle row over |x| <= 6 cm is pushed down
-    through the cylinder's top to height `depth` (inside the cylinder; their triangles cut it). The two edges parallel to the cylinder are pinned at their start height (an
+    through the cylinder's top to height `depth` (inside the cylinder; their triangles cut it),
+    with the rows within `half_width` of it. The two edges parallel to the cylinder are pinned at their start height (an
     unpinned sheet slides off a 1 cm bar), so gravity and the sheet's tension press it onto
     the cylinder."""
     y0 = RADIUS + 0.002
     vertices, faces = grid_sheet(n, n, 0.3, 0.3, "xz", origin=(-0.15, y0, -0.15))
     if patch:
-        pushed = (np.abs(vertices[:, 2]) < 1e-9) & (np.abs(vertices[:, 0]) <= 0.06 + 1e-9)
+        pushed = (np.abs(vertices[:, 2]) <= half_width + 1e-9) & (np.abs(vertices[:, 0]) <= 0.06 + 1e-9)
         vertices[pushed, 1] = depth
     pins = list(range(n)) + list(range(n * (n - 1), n * n))  # the rows at z = -0.15 and z = +0.15
     doc = sheet_shot("bone", n, n, 0.3, 0.3, plane="xz", frames=frames, substeps=4, pins=pins,
@@ -110,3 +112,14 @@ def test_recovery_does_not_depend_on_the_thread_count():
             pass
         finals.append(sim.positions.copy())
     assert np.array_equal(finals[0], finals[1])
+
+
+@pytest.mark.xfail(strict=True, reason="known limit (docs/intersection-analysis.md): with deep vertices the "
+                   "contour leaves sideways and the vertices end outside with triangles still through the bone; "
+                   "the inside test no longer colours them (needs the path colouring)")
+def test_three_rows_pushed_into_the_bone_recover():
+    doc = bone_shot(n=41, frames=6, half_width=0.0075)  # 51 vertices inside; the middle row's are deep
+    for index, sim, t in simulate(doc):
+        pass
+    assert t.gia_coloured_vertices == 0
+    assert t.intersections == 0
