@@ -171,19 +171,30 @@ void CollisionSystem::gia_recover() {
   int pushed = 0;
   for (BodyState& state : bodies_) {
     if (state.inside.empty()) continue;
+    // One exit direction per connected coloured region: the mean, over its contour, of the
+    // directions from contour vertices to their uncoloured neighbours (so a region leaves on
+    // one side, not spread sideways).
+    UnionFind regions(vertex_count_);
+    for (int i = 0; i < vertex_count_; ++i)
+      if (state.inside[i])
+        for (int j : cloth_neighbours_[i])
+          if (state.inside[j]) regions.unite(i, j);
+    std::vector<Vec3> region_towards(vertex_count_, Vec3::Zero());
+    for (int i = 0; i < vertex_count_; ++i)
+      if (state.inside[i])
+        for (int j : cloth_neighbours_[i])
+          if (!state.inside[j]) region_towards[regions.find(i)] += row3(*x_, j) - row3(*x_, i);
     for (int i = 0; i < vertex_count_; ++i) {
       if (!state.inside[i] || !vertex_collide_[i] || inverse_mass_[i] == 0.0) continue;
       // Contour vertices only (an uncoloured neighbour); deep ones follow through the cloth.
       const bool contour = std::any_of(cloth_neighbours_[i].begin(), cloth_neighbours_[i].end(),
                                        [&](int j) { return !state.inside[j]; });
       if (!contour) continue;
-      // Exit on the side of the uncoloured neighbours: along the mean direction to them, through
+      // Exit on the side of the uncoloured neighbours: along the region's direction, through
       // the first body face that ray crosses; else (no such direction or face) through the
       // nearest body face. Lowest face id on ties: deterministic.
       const Vec3 p = row3(*x_, i);
-      Vec3 towards = Vec3::Zero();
-      for (int j : cloth_neighbours_[i])
-        if (!state.inside[j]) towards += row3(*x_, j) - p;
+      const Vec3 towards = region_towards[regions.find(i)];
       const int body_faces = static_cast<int>(state.faces.rows());
       auto corner = [&](int f, int k) { return row3(state.start, state.faces(f, k)); };
       double best = std::numeric_limits<double>::infinity();
