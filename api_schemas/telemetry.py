@@ -35,6 +35,9 @@ TELEMETRY_COLUMNS: list[tuple[str, str, str]] = [
     ("collision_iterations", "i4", "CCD impulse passes plus impact-zone passes, summed over substeps"),
     ("unresolved_collisions", "i4", "colliding pairs left when the impact-zone budget ran out"),
     ("intersections", "i4", "intersecting triangle pairs at frame end (exact; -1: not counted)"),
+    # GIA against closed bodies (docs/intersection-analysis.md); gia_seconds is above.
+    ("gia_coloured_vertices", "i4", "cloth vertices inside a closed body at a substep's start, most over the frame (GIA)"),
+    ("gia_pushed_vertices", "i4", "contour vertices pushed out of bodies by GIA recovery, summed over substeps"),
 ]
 
 
@@ -64,6 +67,8 @@ class FrameTelemetry(BaseModel):
     collision_iterations: int = 0
     unresolved_collisions: int = 0
     intersections: int = -1
+    gia_coloured_vertices: int = 0
+    gia_pushed_vertices: int = 0
 
 
 assert list(FrameTelemetry.model_fields) == [c[0] for c in TELEMETRY_COLUMNS]

@@ -285,8 +285,12 @@ def _asset_paths(shot: Shot) -> set[str]:
 
 def check_features(shot: Shot) -> None:
     """Refuse physics a shot asks for that this build does not provide (never ignore it)."""
-    if shot.features.gia:
-        raise ShotError("features.gia", "global intersection analysis is not available in this version of weft")
+    if shot.features.gia and not any(b.collide for b in shot.bodies):
+        raise ShotError(
+            "features.gia",
+            "global intersection analysis works against closed collidable bodies only in this version of weft "
+            "(cloth/cloth untangling is not available)",
+        )
 
 
 def resolve_scene(shot: Shot, base_dir: str | Path) -> Scene:
@@ -477,6 +481,8 @@ def collision_switches(scene: Scene) -> dict[str, Any]:
       for a single free piece such as a flag, which then pays nothing for it. Cloth/cloth pairs
       are tested between faces that both have self-collision on, also across pieces.
     - CCD (``features.ccd``): on whenever any collision is on.
+    - GIA (``features.gia``): recovery of cloth inside closed bodies; None means on when some
+      cloth vertex starts inside a closed collidable body (decided by the solver at setup).
     A switch set to false at the scene level turns the feature off for every piece.
     """
     shot = scene.shot
@@ -498,9 +504,11 @@ def collision_switches(scene: Scene) -> dict[str, Any]:
     any_body = any(piece_collide) and any(body_collide)
     enabled = any_body or any(piece_self)
     ccd = enabled and (features.ccd if features.ccd is not None else True)
+    gia = (-1 if features.gia is None else int(bool(features.gia))) if any_body else 0
     return {
         "enabled": enabled,
         "ccd": ccd,
+        "gia": gia,
         "piece_collide": piece_collide,
         "piece_self_collide": piece_self,
         "body_collide": body_collide,
@@ -517,6 +525,7 @@ def collision_settings(scene: Scene) -> Any:
     if not settings.enabled:
         return settings
     settings.ccd = switches["ccd"]
+    settings.gia = switches["gia"]
     counts = [len(p.faces) for p in scene.pieces]
     materials = [piece.material for piece in scene.shot.cloth]
     settings.face_collide = np.repeat(switches["piece_collide"], counts).astype(bool).tolist()

@@ -102,7 +102,8 @@ void bind_collision(py::module_& m) {
       .def_readwrite("ccd_iterations", &CollisionSettings::ccd_iterations)
       .def_readwrite("zone_iterations", &CollisionSettings::zone_iterations)
       .def_readwrite("count_intersections", &CollisionSettings::count_intersections)
-      .def_readwrite("contact_constraints", &CollisionSettings::contact_constraints);
+      .def_readwrite("contact_constraints", &CollisionSettings::contact_constraints)
+      .def_readwrite("gia", &CollisionSettings::gia);
 
   auto setup = py::reinterpret_borrow<py::class_<SimulationSetup>>(m.attr("SimulationSetup"));
   setup.def_readwrite("collision", &SimulationSetup::collision);
@@ -125,7 +126,11 @@ void bind_collision(py::module_& m) {
       .def_property_readonly("impact_zones", [](const FrameTelemetry& t) { return t.collision.impact_zones; })
       .def_property_readonly("collision_iterations", [](const FrameTelemetry& t) { return t.collision.iterations; })
       .def_property_readonly("unresolved_collisions", [](const FrameTelemetry& t) { return t.collision.unresolved; })
-      .def_property_readonly("intersections", [](const FrameTelemetry& t) { return t.collision.intersections; });
+      .def_property_readonly("intersections", [](const FrameTelemetry& t) { return t.collision.intersections; })
+      .def_property_readonly("gia_coloured_vertices",
+                             [](const FrameTelemetry& t) { return t.collision.gia_coloured_vertices; })
+      .def_property_readonly("gia_pushed_vertices",
+                             [](const FrameTelemetry& t) { return t.collision.gia_pushed_vertices; });
 
   auto simulation = py::reinterpret_borrow<py::class_<Simulation>>(m.attr("Simulation"));
   simulation.def_property_readonly("collisions_enabled", [](const Simulation& s) { return s.collision_system() != nullptr; })

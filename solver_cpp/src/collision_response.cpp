@@ -9,6 +9,7 @@
 #include <string>
 
 #include "ccd.h"
+#include "intersection_analysis.h"
 #include "intersection_count.h"
 
 namespace weft {
@@ -26,6 +27,9 @@ constexpr double kRepulsionRate = 0.1;
 constexpr double kCcdSeparationFraction = 0.05;
 // ... and its impulses aim for this separation at the end of the step.
 constexpr double kTargetSeparationFraction = 0.1;
+// GIA recovery: a contour vertex inside a body gets an outward normal velocity (relative to the
+// body) of at least this fraction of (depth + thickness) per step.
+constexpr double kRecoveryRate = 1.0;
 
 struct UnionFind {
   std::vector<int> parent;
@@ -51,6 +55,9 @@ void CollisionTelemetry::add(const CollisionTelemetry& o) {
   ccd_seconds += o.ccd_seconds;
   response_seconds += o.response_seconds;
   intersection_seconds += o.intersection_seconds;
+  gia_seconds += o.gia_seconds;
+  gia_coloured_vertices = std::max(gia_coloured_vertices, o.gia_coloured_vertices);
+  gia_pushed_vertices += o.gia_pushed_vertices;
   proximity_pairs += o.proximity_pairs;
   ccd_candidates += o.ccd_candidates;
   ccd_hits += o.ccd_hits;
@@ -115,7 +122,138 @@ CollisionSystem::CollisionSystem(const Faces& cloth_faces, const Positions& x, c
     state.own = assign_features(state.faces, bodies[b].vertex_count());
     triangle_boxes(state.faces, bodies[b].frame_start(), bodies[b].frame_start(), {}, state.boxes);
     state.tree.build(state.boxes);
+    state.closed = build_gia_topology(bodies[b].vertex_count(), state.faces).closed;
   }
+
+  // GIA switch: -1 resolves to on when some cloth vertex starts inside a closed body.
+  gia_ = settings_.gia > 0;
+  if (settings_.gia < 0) {
+    for (size_t b = 0; b < bodies_.size() && !gia_; ++b) {
+      if (!bodies_[b].collide || !bodies_[b].closed) continue;
+      const auto inside = points_inside_closed_mesh(x, bodies[b].frame_start(), bodies_[b].faces, threads_);
+      gia_ = std::any_of(inside.begin(), inside.end(), [](std::int8_t c) { return c != 0; });
+    }
+  }
+  if (gia_) {
+    cloth_neighbours_.assign(vertex_count_, {});
+    vertex_collide_.assign(vertex_count_, 0);
+    for (int f = 0; f < face_count; ++f)
+      for (int c = 0; c < 3; ++c) {
+        const int a = cloth_faces_(f, c), b = cloth_faces_(f, (c + 1) % 3);
+        cloth_neighbours_[a].push_back(b);
+        cloth_neighbours_[b].push_back(a);
+        if (face_collide_[f]) vertex_collide_[a] = 1;
+      }
+    for (auto& n : cloth_neighbours_) {
+      std::sort(n.begin(), n.end());
+      n.erase(std::unique(n.begin(), n.end()), n.end());
+    }
+  }
+}
+
+void CollisionSystem::gia_colour(const Positions& x) {
+  const auto start = Clock::now();
+  int coloured_count = 0;
+  for (BodyState& state : bodies_) {
+    state.inside.clear();
+    if (!state.collide || !state.closed) continue;
+    const auto inside = points_inside_closed_mesh(x, state.start, state.faces, threads_);
+    state.inside.assign(inside.begin(), inside.end());
+    for (int i = 0; i < vertex_count_; ++i)
+      if (state.inside[i] && vertex_collide_[i]) ++coloured_count;
+  }
+  frame_.gia_coloured_vertices = std::max(frame_.gia_coloured_vertices, coloured_count);
+  frame_.gia_seconds += since(start);
+}
+
+void CollisionSystem::gia_recover() {
+  const auto start = Clock::now();
+  int pushed = 0;
+  for (BodyState& state : bodies_) {
+    if (state.inside.empty()) continue;
+    // One exit direction per connected coloured region: the mean, over its contour, of the
+    // directions from contour vertices to their uncoloured neighbours (so a region leaves on
+    // one side, not spread sideways).
+    UnionFind regions(vertex_count_);
+    for (int i = 0; i < vertex_count_; ++i)
+      if (state.inside[i])
+        for (int j : cloth_neighbours_[i])
+          if (state.inside[j]) regions.unite(i, j);
+    std::vector<Vec3> region_towards(vertex_count_, Vec3::Zero());
+    for (int i = 0; i < vertex_count_; ++i)
+      if (state.inside[i])
+        for (int j : cloth_neighbours_[i])
+          if (!state.inside[j]) region_towards[regions.find(i)] += row3(*x_, j) - row3(*x_, i);
+    for (int i = 0; i < vertex_count_; ++i) {
+      if (!state.inside[i] || !vertex_collide_[i] || inverse_mass_[i] == 0.0) continue;
+      // Contour vertices only (an uncoloured neighbour); deep ones follow through the cloth.
+      const bool contour = std::any_of(cloth_neighbours_[i].begin(), cloth_neighbours_[i].end(),
+                                       [&](int j) { return !state.inside[j]; });
+      if (!contour) continue;
+      // Exit on the side of the uncoloured neighbours: along the region's direction, through
+      // the first body face that ray crosses; else (no such direction or face) through the
+      // nearest body face. Lowest face id on ties: deterministic.
+      const Vec3 p = row3(*x_, i);
+      const Vec3 towards = region_towards[regions.find(i)];
+      const int body_faces = static_cast<int>(state.faces.rows());
+      auto corner = [&](int f, int k) { return row3(state.start, state.faces(f, k)); };
+      double best = std::numeric_limits<double>::infinity();
+      int best_face = -1;
+      Vec3 best_bary = Vec3::Zero();
+      Vec3 n = Vec3::Zero();
+      if (towards.norm() > 1e-9 * vertex_thickness_[i]) {
+        const Vec3 dir = towards.normalized();
+        for (int f = 0; f < body_faces; ++f) {  // Moller-Trumbore
+          const Vec3 a = corner(f, 0), e1 = corner(f, 1) - a, e2 = corner(f, 2) - a;
+          const Vec3 pv = dir.cross(e2);
+          const double det = e1.dot(pv);
+          if (std::abs(det) <= 1e-300) continue;
+          const Vec3 tv = p - a;
+          const double u = tv.dot(pv) / det;
+          const Vec3 qv = tv.cross(e1);
+          const double w = dir.dot(qv) / det;
+          const double t = e2.dot(qv) / det;
+          // A small tolerance so that a ray through a shared edge or corner is not missed.
+          constexpr double kEdge = 1e-9;
+          if (u < -kEdge || w < -kEdge || u + w > 1.0 + kEdge || !(t > 0.0) || t >= best) continue;
+          best = t;
+          best_face = f;
+          best_bary = Vec3(1.0 - u - w, u, w).cwiseMax(0.0);
+          best_bary /= best_bary.sum();
+        }
+        if (best_face >= 0) n = dir;
+      }
+      if (best_face < 0) {
+        for (int f = 0; f < body_faces; ++f) {
+          Vec3 bary;
+          const double d = point_triangle_distance(p, corner(f, 0), corner(f, 1), corner(f, 2), bary);
+          if (d < best) {
+            best = d;
+            best_face = f;
+            best_bary = bary;
+          }
+        }
+      }
+      if (best_face < 0) continue;
+      Vec3 q = Vec3::Zero(), vb = Vec3::Zero();
+      for (int k = 0; k < 3; ++k) {
+        const int bv = state.faces(best_face, k);
+        q += best_bary[k] * row3(state.start, bv);
+        vb += best_bary[k] * (row3(state.end, bv) - row3(state.start, bv)) / h_;
+      }
+      if (n.squaredNorm() == 0.0) n = q - p;
+      if (n.norm() <= 1e-12) continue;  // on the surface with no direction to leave by
+      n.normalize();
+      const double target = kRecoveryRate * (best + vertex_thickness_[i]) / h_;
+      const double vn = n.dot(row3(*v_, i) - vb);
+      if (vn >= target) continue;
+      v_->row(i) += ((target - vn) * n).transpose();
+      x_end_.row(i) = x_->row(i) + h_ * v_->row(i);
+      ++pushed;
+    }
+  }
+  frame_.gia_pushed_vertices += pushed;
+  frame_.gia_seconds += since(start);
 }
 
 Vec3 CollisionSystem::start_of(int p, int body) const {
@@ -158,12 +296,18 @@ void CollisionSystem::expand_triangle_pair(int cf, int of, int body, std::vector
   }
   const BodyState& b = bodies_[body];
   auto bv = [](int k) { return -1 - k; };
+  // GIA one-way membrane: features with a cloth vertex coloured inside this body are skipped.
   for (int v : cloth_own_.face_vertices[cf])
-    out.push_back({{v, bv(b.faces(of, 0)), bv(b.faces(of, 1)), bv(b.faces(of, 2))}, body, false});
-  for (int k : b.own.face_vertices[of])
-    out.push_back({{bv(k), cloth_faces_(cf, 0), cloth_faces_(cf, 1), cloth_faces_(cf, 2)}, body, false});
+    if (!coloured(v, body))
+      out.push_back({{v, bv(b.faces(of, 0)), bv(b.faces(of, 1)), bv(b.faces(of, 2))}, body, false});
+  const bool face_coloured =
+      coloured(cloth_faces_(cf, 0), body) || coloured(cloth_faces_(cf, 1), body) || coloured(cloth_faces_(cf, 2), body);
+  if (!face_coloured)
+    for (int k : b.own.face_vertices[of])
+      out.push_back({{bv(k), cloth_faces_(cf, 0), cloth_faces_(cf, 1), cloth_faces_(cf, 2)}, body, false});
   for (const auto& e1 : cloth_own_.face_edges[cf])
-    for (const auto& e2 : b.own.face_edges[of]) out.push_back({{e1[0], e1[1], bv(e2[0]), bv(e2[1])}, body, true});
+    if (!coloured(e1[0], body) && !coloured(e1[1], body))
+      for (const auto& e2 : b.own.face_edges[of]) out.push_back({{e1[0], e1[1], bv(e2[0]), bv(e2[1])}, body, true});
 }
 
 void CollisionSystem::body_triangle_pairs(int body, bool swept) {
@@ -524,6 +668,10 @@ void CollisionSystem::respond(const Positions& x, Positions& v, double h, const 
   body_positions(bodies, alpha0, alpha1);
   changed_.assign(vertex_count_, 0);
   contact_friction();
+  if (gia_) {
+    gia_colour(x);
+    gia_recover();
+  }
   collect_pairs();
   proximity_pass();
   if (settings_.ccd) {

@@ -41,6 +41,9 @@ struct CollisionSettings {
   // default: the simple release rule (a vertex leaving faster than its push-out is not
   // constrained) made resting contact jitter in the box drop (docs/collisions.md).
   bool contact_constraints = false;
+  // Global intersection analysis against closed bodies (docs/intersection-analysis.md):
+  // 0 off, 1 on, -1 on when some cloth vertex starts inside a closed collidable body.
+  int gia = 0;
 };
 
 struct CollisionTelemetry {
@@ -56,6 +59,9 @@ struct CollisionTelemetry {
   int iterations = 0;  // CCD impulse passes plus impact-zone passes
   int unresolved = 0;  // colliding pairs left when the zone budget ran out
   int intersections = -1;  // triangle pairs intersecting at frame end (-1: not counted)
+  double gia_seconds = 0.0;     // cloth/body inside classification and recovery pushes
+  int gia_coloured_vertices = 0;  // cloth vertices inside a closed body, most over the substeps
+  int gia_pushed_vertices = 0;    // contour vertices pushed out, summed over substeps
   double total_seconds() const {
     return broad_phase_seconds + proximity_seconds + ccd_seconds + response_seconds + intersection_seconds;
   }
@@ -96,6 +102,7 @@ class CollisionSystem {
   CollisionTelemetry end_frame(const Positions& x, const std::vector<KinematicBody>& bodies);
   const CollisionSettings& settings() const { return settings_; }
   bool self_collision() const { return any_self_; }
+  bool gia() const { return gia_; }
 
  private:
   struct BodyState {
@@ -105,7 +112,16 @@ class CollisionSystem {
     AabbTree tree;
     std::vector<Aabb> boxes;
     Positions start, end;
+    bool closed = false;        // watertight: GIA classifies cloth vertices inside it
+    std::vector<char> inside;   // GIA: cloth vertex inside at this step's start (coloured)
   };
+  // GIA at the start of a step: colour cloth vertices inside closed bodies (their feature
+  // pairs with that body are skipped: a one-way membrane) and push contour vertices out.
+  void gia_colour(const Positions& x);
+  void gia_recover();
+  bool coloured(int p, int body) const {
+    return p >= 0 && gia_ && !bodies_[body].inside.empty() && bodies_[body].inside[p];
+  }
   Vec3 start_of(int p, int body) const;
   Vec3 end_of(int p, int body) const;
   Vec3 velocity_of(int p, int body) const;
@@ -134,7 +150,9 @@ class CollisionSystem {
   int threads_;
   std::vector<double> inverse_mass_, vertex_thickness_, vertex_friction_;
   std::vector<char> face_collide_, face_self_;
-  bool any_self_ = false, any_body_ = false;
+  bool any_self_ = false, any_body_ = false, gia_ = false;
+  std::vector<std::vector<int>> cloth_neighbours_;  // GIA contour test
+  std::vector<char> vertex_collide_;                // GIA: on some body-colliding face
   FeatureOwnership cloth_own_;
   AabbTree cloth_tree_;
   std::vector<Aabb> cloth_boxes_;

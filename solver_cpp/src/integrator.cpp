@@ -176,6 +176,7 @@ FrameTelemetry Simulation::advance_frame(double frame_start_time, double frame_d
   if (collisions_) {
     telemetry.collision = collisions_->end_frame(x_, bodies_);
     telemetry.collision_seconds = telemetry.collision.total_seconds();
+    telemetry.gia_seconds = telemetry.collision.gia_seconds;
   }
   const Energies e = energies();
   telemetry.kinetic_energy = e.kinetic;

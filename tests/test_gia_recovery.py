@@ -1,0 +1,122 @@
+"""GIA in the collision stage (docs/intersection-analysis.md): cloth that starts inside a closed
+body recovers through the one-way membrane; a clean start is unaffected; the GIA telemetry is
+in the cache."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from weft.cache import open_cache_reader
+from weft.collision_scenes import bar_mesh
+from weft.runner import ShotRunner
+from weft.scene import collision_switches
+from weft.scene_builders import grid_sheet, inline_mesh, sheet_shot
+
+from conftest import make_scene
+from test_collisions import convex_depth, simulate
+
+RADIUS = 0.01  # the "bone"
+
+
+def bone_shot(n: int = 21, frames: int = 16, patch: bool = True, gia: bool | None = None, depth: float = 0.003,
+              half_width: float = 0.0) -> dict:
+    """A 0.3 m sheet 2 mm above a horizontal closed cylinder (radius 1 cm, along x, 0.5 m
+    long) at the origin; with `patch`, the sheet's middle row over |x| <= 6 cm is pushed down
+    through the cylinder's top to height `depth` (inside the cylinder; their triangles cut it),
+    with the rows within `half_width` of it. The two edges parallel to the cylinder are pinned at their start height (an
+    unpinned sheet slides off a 1 cm bar), so gravity and the sheet's tension press it onto
+    the cylinder."""
+    y0 = RADIUS + 0.002
+    vertices, faces = grid_sheet(n, n, 0.3, 0.3, "xz", origin=(-0.15, y0, -0.15))
+    if patch:
+        pushed = (np.abs(vertices[:, 2]) <= half_width + 1e-9) & (np.abs(vertices[:, 0]) <= 0.06 + 1e-9)
+        vertices[pushed, 1] = depth
+    pins = list(range(n)) + list(range(n * (n - 1), n * n))  # the rows at z = -0.15 and z = +0.15
+    doc = sheet_shot("bone", n, n, 0.3, 0.3, plane="xz", frames=frames, substeps=4, pins=pins,
+                     material={"friction": 0.5, "damping": 0.01}, air_drag=0.2)
+    doc["cloth"][0]["mesh"] = inline_mesh(vertices, faces)
+    bar_v, bar_f = bar_mesh(RADIUS, 0.5, sections=16)
+    doc["bodies"] = [{"name": "bone", "mesh": inline_mesh(bar_v, bar_f)}]
+    if gia is not None:
+        doc["features"] = {"gia": gia}
+    return doc
+
+
+@pytest.mark.parametrize(
+    "n, half_width, depth, inside",
+    [
+        (21, 0.0, 0.003, 9),  # one row 7 mm in
+        (21, 0.0, -0.007, 9),  # one row past the axis, 3 mm from the bottom (nearest exit: wrong side)
+        (41, 0.0075, 0.003, 51),  # three rows (7.5 mm spacing): the middle row's vertices are deep
+        (41, 0.0075, -0.003, 51),  # three rows, past the axis
+    ],
+)
+def test_sheet_pushed_through_a_bone_recovers_to_the_majority_side(n, half_width, depth, inside):
+    doc = bone_shot(n=n, depth=depth, half_width=half_width)
+    bar_v = np.asarray(doc["bodies"][0]["mesh"]["vertices"])
+    bar_f = np.asarray(doc["bodies"][0]["mesh"]["faces"])
+    start = np.asarray(doc["cloth"][0]["mesh"]["vertices"])
+    assert (convex_depth(start, bar_v, bar_f) < 0).sum() == inside  # the pushed patch starts inside
+    assert collision_switches(make_scene(doc))["gia"] == -1  # auto: on, the start is in intersection
+    counts, coloured, pushed = [], [], 0
+    for index, sim, t in simulate(doc):
+        counts.append(t.intersections)
+        coloured.append(t.gia_coloured_vertices)
+        pushed += t.gia_pushed_vertices
+    x = sim.positions
+    # Bounded recovery: zero intersections by the end of frame 2, and it stays so.
+    first_clean = next(i for i, c in enumerate(counts) if c == 0)
+    assert first_clean <= 1, counts
+    assert all(c == 0 for c in counts[first_clean:]), counts
+    assert pushed > 0 and coloured[0] > 0 and coloured[-1] == 0, (pushed, coloured)
+    # Wholly outside, on the side most of the sheet started (above): every vertex over the
+    # cylinder is above its axis and near it (the popped patch may stand ~2 cm up as a bump);
+    # the sheet sags on both sides of it.
+    assert convex_depth(x, bar_v, bar_f).min() > 0.0
+    over = np.abs(x[:, 2]) < RADIUS
+    assert over.any() and (x[over, 1] > 0.0).all() and (x[over, 1] < 0.05).all()
+    assert x[:, 1].min() < RADIUS
+
+
+def test_without_gia_the_pushed_patch_stays_caught():
+    """The control: with GIA off, CCD holds the patch in the cylinder."""
+    doc = bone_shot(frames=4, gia=False)
+    for index, sim, t in simulate(doc):
+        assert t.gia_coloured_vertices == 0
+    assert t.intersections > 0
+
+
+def test_clean_start_with_gia_forced_on_stays_free_of_intersections_like_gia_off():
+    finals = {}
+    for gia in (True, False):
+        doc = bone_shot(frames=10, patch=False, gia=gia)
+        assert collision_switches(make_scene(doc))["gia"] == int(gia)
+        for index, sim, t in simulate(doc):
+            assert t.intersections == 0, f"gia {gia}, frame {index}: {t.intersections} intersecting pairs"
+            assert t.gia_coloured_vertices == 0 and t.gia_pushed_vertices == 0
+        finals[gia] = sim.positions.copy()
+    # Nothing coloured: the membrane skipped nothing, so the motion is exactly that without GIA.
+    assert np.array_equal(finals[True], finals[False])
+
+
+def test_gia_telemetry_is_in_the_cache(tmp_path):
+    doc = bone_shot(frames=4)
+    summary = ShotRunner(make_scene(doc), tmp_path / "bone.h5", threads=2).run()
+    assert summary.status == "complete"
+    with open_cache_reader(tmp_path / "bone.h5") as f:
+        telemetry = f["telemetry"][()]
+    names = telemetry.dtype.names
+    assert {"gia_seconds", "gia_coloured_vertices", "gia_pushed_vertices", "intersections"} <= set(names)
+    assert telemetry["gia_coloured_vertices"][1] > 0  # the patch was coloured in frame 1
+    assert telemetry["gia_seconds"][1:].min() > 0.0
+    assert (telemetry["intersections"][1:] >= 0).all()
+
+
+def test_recovery_does_not_depend_on_the_thread_count():
+    finals = []
+    for threads in (1, 2):
+        for index, sim, t in simulate(bone_shot(frames=4), threads=threads):
+            pass
+        finals.append(sim.positions.copy())
+    assert np.array_equal(finals[0], finals[1])
