@@ -46,7 +46,7 @@ from api_schemas.service import (
 )
 from server import cachefiles
 from server.uploads import UploadError, normalize_asset_path, read_limited, receive_multipart
-from weft.scene import ShotError, ShotValidationError, _asset_paths, parse_shot, resolve_scene
+from weft.scene import ShotError, ShotValidationError, asset_paths, parse_shot, resolve_scene
 from workers import jobs
 from workers.settings import ServiceSettings
 
@@ -317,7 +317,7 @@ def create_app(settings: ServiceSettings | None = None) -> FastAPI:
             check_index_sizes(shot)
             if shot.frame_count > settings.max_frames:
                 raise ShotError("frame_range", f"{shot.frame_count} frames exceeds the limit of {settings.max_frames}")
-            referenced = {normalize_asset_path(path) for path in _asset_paths(shot)}
+            referenced = {normalize_asset_path(path) for path in asset_paths(shot)}
             extra = sorted(uploaded - referenced)
             if extra:
                 raise ApiError(400, f"uploaded file {extra[0]!r} is not referenced by the shot",

@@ -259,7 +259,7 @@ def check_rest_areas(face_uv: np.ndarray, field_path: str) -> None:
 def shot_hash(shot: Shot, base_dir: Path) -> str:
     """SHA-256 over the canonical shot and the bytes of every asset it references."""
     digest = hashlib.sha256(shot.model_dump_json().encode())
-    for path in sorted(_asset_paths(shot)):
+    for path in sorted(asset_paths(shot)):
         candidate = (base_dir / path).resolve()
         if candidate.is_file():
             digest.update(path.encode())
@@ -267,7 +267,7 @@ def shot_hash(shot: Shot, base_dir: Path) -> str:
     return digest.hexdigest()
 
 
-def _asset_paths(shot: Shot) -> set[str]:
+def asset_paths(shot: Shot) -> set[str]:
     paths: set[str] = set()
     for piece in shot.cloth:
         if piece.mesh.path:

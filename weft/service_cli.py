@@ -144,7 +144,7 @@ def submit_shot(client: httpx.Client, shot_path: Path, idempotency_key: str | No
     """Upload a shot file and the asset files it references (multipart)."""
     import yaml
 
-    from weft.scene import ShotError, ShotValidationError, _asset_paths, load_shot_file
+    from weft.scene import ShotError, ShotValidationError, asset_paths, load_shot_file
 
     try:
         shot = load_shot_file(shot_path)
@@ -156,7 +156,7 @@ def submit_shot(client: httpx.Client, shot_path: Path, idempotency_key: str | No
     files: list[tuple[str, Any]] = [("shot", ("shot.json", json.dumps(document, default=str), "application/json"))]
     handles = []
     try:
-        for relative in sorted(_asset_paths(shot)):
+        for relative in sorted(asset_paths(shot)):
             path = shot_path.parent / relative
             if not path.is_file():
                 _fail(f"{shot_path}: asset {relative} not found next to the shot")
