@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from weft.cache import open_cache_reader
-from weft.collision_scenes import bar_mesh
+from weft.collision_scenes import bar_mesh, tube_mesh
 from weft.runner import ShotRunner
 from weft.scene import collision_switches
 from weft.scene_builders import grid_sheet, inline_mesh, sheet_shot
@@ -77,6 +77,58 @@ def test_sheet_pushed_through_a_bone_recovers_to_the_majority_side(n, half_width
     over = np.abs(x[:, 2]) < RADIUS
     assert over.any() and (x[over, 1] > 0.0).all() and (x[over, 1] < 0.05).all()
     assert x[:, 1].min() < RADIUS
+
+
+def through_shot(height: float = 0.02, depth: float = -0.02, frames: int = 12, gia: bool | None = None) -> dict:
+    """A patch pushed wholly through the bone: a 0.3 m sheet (21 x 21, flat rest shape) pinned
+    along its two edges parallel to a tessellated bone (radius 1 cm, 20 rings along its 0.5 m)
+    at `height`, so it drapes onto the bone; the three middle rows over |x| <= 6 cm start at
+    `depth`, below the bone. No cloth vertex is inside the bone: the bone passes through the
+    sheet's two steep walls at x = +-6.75 cm, and its segment between them is on the wrong side."""
+    n = 21
+    vertices, faces = grid_sheet(n, n, 0.3, 0.3, "xz", origin=(-0.15, height, -0.15))
+    rest = vertices.copy()
+    pushed = (np.abs(vertices[:, 2]) <= 0.015 + 1e-9) & (np.abs(vertices[:, 0]) <= 0.06 + 1e-9)
+    vertices[pushed, 1] = depth
+    pins = list(range(n)) + list(range(n * (n - 1), n * n))
+    doc = sheet_shot("bone_through", n, n, 0.3, 0.3, plane="xz", frames=frames, substeps=4, pins=pins,
+                     material={"friction": 0.5, "damping": 0.01}, air_drag=0.2)
+    doc["cloth"][0]["mesh"] = inline_mesh(vertices, faces)
+    doc["cloth"][0]["rest"] = {"kind": "positions", "positions": rest.tolist()}
+    tube_v, tube_f = tube_mesh(RADIUS, 0.5, sections=16, segments=20)
+    doc["bodies"] = [{"name": "bone", "mesh": inline_mesh(tube_v, tube_f)}]
+    if gia is not None:
+        doc["features"] = {"gia": gia}
+    return doc
+
+
+def test_patch_wholly_through_a_bone_comes_back_through_the_coloured_segment():
+    """Path colouring on the body: the bone segment through the sheet is coloured, the
+    membrane lets the patch pass it, and the sheet's elasticity pulls it back up."""
+    doc = through_shot()
+    tube_v = np.asarray(doc["bodies"][0]["mesh"]["vertices"])
+    tube_f = np.asarray(doc["bodies"][0]["mesh"]["faces"])
+    start = np.asarray(doc["cloth"][0]["mesh"]["vertices"])
+    assert (convex_depth(start, tube_v, tube_f) < 0).sum() == 0  # no vertex inside: only triangles cut
+    counts, paths, body_faces = [], [], []
+    for index, sim, t in simulate(doc):
+        counts.append(t.intersections)
+        paths.append(t.gia_paths)
+        body_faces.append(t.gia_body_coloured_faces)
+    assert counts[0] > 0 and paths[0] >= 2 and body_faces[0] > 0, (counts, paths, body_faces)
+    first_clean = next(i for i, c in enumerate(counts) if c == 0)
+    assert first_clean <= 8, counts
+    assert all(c == 0 for c in counts[first_clean:]), counts
+    assert paths[-1] == 0 and body_faces[-1] == 0
+    x = sim.positions
+    assert convex_depth(x, tube_v, tube_f).min() > 0.0
+    over = (np.abs(x[:, 2]) < RADIUS) & (np.abs(x[:, 0]) < 0.1)
+    assert (x[over, 1] > RADIUS).all()  # the patch lies on top of the bone
+
+
+def test_patch_wholly_through_stays_through_without_gia():
+    counts = [t.intersections for index, sim, t in simulate(through_shot(frames=6, gia=False))]
+    assert min(counts) > 0, counts
 
 
 def test_without_gia_the_pushed_patch_stays_caught():

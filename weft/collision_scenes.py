@@ -39,6 +39,26 @@ def bar_mesh(radius: float, length: float, sections: int = 8) -> tuple[np.ndarra
     return np.asarray(m.vertices), np.asarray(m.faces)
 
 
+def tube_mesh(radius: float, length: float, sections: int = 16, segments: int = 20) -> tuple[np.ndarray, np.ndarray]:
+    """A closed cylinder along x centred at the origin, its side split into `segments` rings
+    along the length (a tessellated limb or bone, unlike `bar_mesh`'s two end rings); outward
+    normals (counter-clockwise seen from outside)."""
+    xs = np.linspace(-length / 2, length / 2, segments + 1)
+    angles = 2 * np.pi * np.arange(sections) / sections
+    ring = np.stack([np.zeros(sections), radius * np.cos(angles), radius * np.sin(angles)], axis=1)
+    vertices = np.concatenate([ring + [x, 0.0, 0.0] for x in xs] + [[[-length / 2, 0, 0], [length / 2, 0, 0]]])
+    faces = []
+    for i in range(segments):
+        for j in range(sections):
+            a, b = i * sections + j, i * sections + (j + 1) % sections
+            faces += [[a, b, a + sections], [b, b + sections, a + sections]]
+    first_cap, last_cap, last_ring = len(vertices) - 2, len(vertices) - 1, segments * sections
+    for j in range(sections):
+        faces.append([first_cap, (j + 1) % sections, j])
+        faces.append([last_cap, last_ring + j, last_ring + (j + 1) % sections])
+    return vertices, np.asarray(faces, dtype=np.int64)
+
+
 def drop_shot(body: str = "sphere", n: int = 16, frames: int = 36, substeps: int = 4) -> dict[str, Any]:
     """A 1 m horizontal sheet released 0.15 m above a sphere (r 0.3 m) or a cube (0.5 m)."""
     if body == "sphere":

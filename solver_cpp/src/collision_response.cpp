@@ -58,6 +58,8 @@ void CollisionTelemetry::add(const CollisionTelemetry& o) {
   gia_seconds += o.gia_seconds;
   gia_coloured_vertices = std::max(gia_coloured_vertices, o.gia_coloured_vertices);
   gia_pushed_vertices += o.gia_pushed_vertices;
+  gia_paths = std::max(gia_paths, o.gia_paths);
+  gia_body_coloured_faces = std::max(gia_body_coloured_faces, o.gia_body_coloured_faces);
   proximity_pairs += o.proximity_pairs;
   ccd_candidates += o.ccd_candidates;
   ccd_hits += o.ccd_hits;
@@ -125,13 +127,20 @@ CollisionSystem::CollisionSystem(const Faces& cloth_faces, const Positions& x, c
     state.closed = build_gia_topology(bodies[b].vertex_count(), state.faces).closed;
   }
 
-  // GIA switch: -1 resolves to on when some cloth vertex starts inside a closed body.
+  // GIA switch: -1 resolves to on when the cloth starts in intersection with a closed body:
+  // some cloth vertex inside it, or some cloth triangle through it (a patch pushed wholly
+  // through a thin body has no vertex inside).
+  for (int f = 0; f < face_count; ++f)
+    if (face_collide_[f]) collide_face_ids_.push_back(f);
+  collide_faces_.resize(static_cast<Eigen::Index>(collide_face_ids_.size()), 3);
+  for (size_t k = 0; k < collide_face_ids_.size(); ++k) collide_faces_.row(k) = cloth_faces_.row(collide_face_ids_[k]);
   gia_ = settings_.gia > 0;
   if (settings_.gia < 0) {
     for (size_t b = 0; b < bodies_.size() && !gia_; ++b) {
       if (!bodies_[b].collide || !bodies_[b].closed) continue;
       const auto inside = points_inside_closed_mesh(x, bodies[b].frame_start(), bodies_[b].faces, threads_);
-      gia_ = std::any_of(inside.begin(), inside.end(), [](std::int8_t c) { return c != 0; });
+      gia_ = std::any_of(inside.begin(), inside.end(), [](std::int8_t c) { return c != 0; }) ||
+             weft::count_intersections(x, cloth_faces_, bodies[b].frame_start(), bodies_[b].faces, face_collide_) > 0;
     }
   }
   if (gia_) {
@@ -153,16 +162,42 @@ CollisionSystem::CollisionSystem(const Faces& cloth_faces, const Positions& x, c
 
 void CollisionSystem::gia_colour(const Positions& x) {
   const auto start = Clock::now();
-  int coloured_count = 0;
+  int coloured_count = 0, paths = 0, body_faces = 0;
+  GiaOptions options;
+  options.threads = threads_;
   for (BodyState& state : bodies_) {
     state.inside.clear();
+    state.face_coloured.clear();
+    state.vertex_coloured.clear();
+    state.cloth_face_contour.clear();
     if (!state.collide || !state.closed) continue;
-    const auto inside = points_inside_closed_mesh(x, state.start, state.faces, threads_);
-    state.inside.assign(inside.begin(), inside.end());
+    // Cloth side: the exact inside test (ray parity). Body side: the parity colouring of the
+    // body over all separating paths, so a body segment that passes wholly through the cloth
+    // (a patch pushed through a thin bone) is marked even though no cloth vertex is inside.
+    const GiaResult gia = analyse_intersections(x, collide_faces_, state.start, state.faces, options);
+    paths += static_cast<int>(gia.paths.size());
+    const GiaMeshColouring& cloth = gia.mesh[0];
+    const GiaMeshColouring& body = gia.mesh[1];
+    state.inside.assign(cloth.inside_other.begin(), cloth.inside_other.end());
+    if (state.inside.empty()) state.inside.assign(vertex_count_, 0);
+    state.vertex_coloured.assign(body.vertex_parity_colour.begin(), body.vertex_parity_colour.end());
+    const int faces = static_cast<int>(state.faces.rows());
+    state.face_coloured.assign(faces, 0);
+    for (int f = 0; f < faces; ++f) {
+      int coloured_corners = 0;
+      for (int k = 0; k < 3; ++k) coloured_corners += state.vertex_coloured[state.faces(f, k)] != 0;
+      state.face_coloured[f] = coloured_corners == 3 ? 2 : (coloured_corners > 0 || body.face_colour[f] == kGiaContour);
+      body_faces += state.face_coloured[f] != 0;
+    }
+    state.cloth_face_contour.assign(cloth_faces_.rows(), 0);
+    for (size_t k = 0; k < collide_face_ids_.size(); ++k)
+      state.cloth_face_contour[collide_face_ids_[k]] = cloth.face_colour[k] == kGiaContour;
     for (int i = 0; i < vertex_count_; ++i)
       if (state.inside[i] && vertex_collide_[i]) ++coloured_count;
   }
   frame_.gia_coloured_vertices = std::max(frame_.gia_coloured_vertices, coloured_count);
+  frame_.gia_paths = std::max(frame_.gia_paths, paths);
+  frame_.gia_body_coloured_faces = std::max(frame_.gia_body_coloured_faces, body_faces);
   frame_.gia_seconds += since(start);
 }
 
@@ -234,7 +269,10 @@ void CollisionSystem::gia_recover() {
           }
         }
       }
-      if (best_face < 0) continue;
+      // Proximity gating (the seed's rule): respond only when the face the vertex would exit
+      // through is itself in intersection with the cloth; exiting through a free face would
+      // put the cloth on the wrong side of the body.
+      if (best_face < 0 || !state.face_coloured[best_face]) continue;
       Vec3 q = Vec3::Zero(), vb = Vec3::Zero();
       for (int k = 0; k < 3; ++k) {
         const int bv = state.faces(best_face, k);
@@ -296,6 +334,14 @@ void CollisionSystem::expand_triangle_pair(int cf, int of, int body, std::vector
   }
   const BodyState& b = bodies_[body];
   auto bv = [](int k) { return -1 - k; };
+  // GIA one-way membrane, body side: a body face in intersection with the cloth (in the body's
+  // coloured region, or pierced) lets cloth pass, so a body segment that went through the cloth
+  // can come back out of it.
+  // A body face wholly in the body's coloured region lets all cloth pass; one on the contour
+  // lets pass only cloth triangles that are themselves on the contour (pierced by the body or
+  // piercing it), so cloth away from the intersection still cannot enter.
+  const int body_colour = body_face_colour(of, body);
+  if (body_colour == 2 || (body_colour == 1 && cloth_face_contour(cf, body))) return;
   // GIA one-way membrane: features with a cloth vertex coloured inside this body are skipped.
   for (int v : cloth_own_.face_vertices[cf])
     if (!coloured(v, body))

@@ -62,6 +62,8 @@ struct CollisionTelemetry {
   double gia_seconds = 0.0;     // cloth/body inside classification and recovery pushes
   int gia_coloured_vertices = 0;  // cloth vertices inside a closed body, most over the substeps
   int gia_pushed_vertices = 0;    // contour vertices pushed out, summed over substeps
+  int gia_paths = 0;              // cloth/body intersection paths at a substep start, most over the frame
+  int gia_body_coloured_faces = 0;  // body faces in intersection with the cloth, most over the frame
   double total_seconds() const {
     return broad_phase_seconds + proximity_seconds + ccd_seconds + response_seconds + intersection_seconds;
   }
@@ -113,7 +115,13 @@ class CollisionSystem {
     std::vector<Aabb> boxes;
     Positions start, end;
     bool closed = false;        // watertight: GIA classifies cloth vertices inside it
-    std::vector<char> inside;   // GIA: cloth vertex inside at this step's start (coloured)
+    // GIA of the cloth against this body at the step's start (empty when not run):
+    std::vector<char> inside;         // per cloth vertex: inside the body (coloured)
+    // per body face: 2 all vertices in the body's coloured region (in intersection with the
+    // cloth), 1 some vertex in it or pierced by the cloth (on the contour), 0 free
+    std::vector<char> face_coloured;
+    std::vector<char> vertex_coloured;   // per body vertex: in the body's coloured region
+    std::vector<char> cloth_face_contour;  // per cloth face: it and the body pierce each other
   };
   // GIA at the start of a step: colour cloth vertices inside closed bodies (their feature
   // pairs with that body are skipped: a one-way membrane) and push contour vertices out.
@@ -121,6 +129,13 @@ class CollisionSystem {
   void gia_recover();
   bool coloured(int p, int body) const {
     return p >= 0 && gia_ && !bodies_[body].inside.empty() && bodies_[body].inside[p];
+  }
+  // GIA body-side colouring of body face `f` (see BodyState::face_coloured; 0 when GIA is off).
+  int body_face_colour(int f, int body) const {
+    return gia_ && !bodies_[body].face_coloured.empty() ? bodies_[body].face_coloured[f] : 0;
+  }
+  bool cloth_face_contour(int f, int body) const {
+    return gia_ && !bodies_[body].cloth_face_contour.empty() && bodies_[body].cloth_face_contour[f];
   }
   Vec3 start_of(int p, int body) const;
   Vec3 end_of(int p, int body) const;
@@ -153,6 +168,8 @@ class CollisionSystem {
   bool any_self_ = false, any_body_ = false, gia_ = false;
   std::vector<std::vector<int>> cloth_neighbours_;  // GIA contour test
   std::vector<char> vertex_collide_;                // GIA: on some body-colliding face
+  Faces collide_faces_;                             // GIA: the cloth faces that collide with bodies
+  std::vector<int> collide_face_ids_;               // their ids among all cloth faces
   FeatureOwnership cloth_own_;
   AabbTree cloth_tree_;
   std::vector<Aabb> cloth_boxes_;
