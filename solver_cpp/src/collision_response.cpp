@@ -8,6 +8,8 @@
 #include <stdexcept>
 #include <string>
 
+#include <Eigen/Eigenvalues>
+
 #include "ccd.h"
 #include "intersection_analysis.h"
 #include "intersection_count.h"
@@ -564,9 +566,12 @@ int CollisionSystem::ccd_pass(bool apply, std::vector<int>* hits, bool increment
 int CollisionSystem::impact_zones(std::vector<int>& hits) {
   UnionFind zones(vertex_count_);
   std::vector<char> in_zone(vertex_count_, 0);
-  // Velocity of a body the zone touches, per cloth vertex that touched it (sum, count).
-  std::vector<Vec3> body_velocity(vertex_count_, Vec3::Zero());
-  std::vector<int> body_contacts(vertex_count_, 0);
+  // Body points the zones touched: (a cloth vertex of the pair, body point start, velocity).
+  struct BodyReference {
+    int cloth_vertex;
+    Vec3 x, v;
+  };
+  std::vector<BodyReference> body_references;
   int zone_count = 0;
   for (int iteration = 0; iteration < settings_.zone_iterations && !hits.empty(); ++iteration) {
     const auto start = Clock::now();
@@ -574,51 +579,74 @@ int CollisionSystem::impact_zones(std::vector<int>& hits) {
     for (int k : hits) {
       const FeaturePair& pair = pairs_[k];
       int first = -1;
-      Vec3 body_v = Vec3::Zero();
-      int body_points = 0;
       for (int p : pair.point) {
-        if (p < 0) {
-          body_v += velocity_of(p, pair.body);
-          ++body_points;
-          continue;
-        }
+        if (p < 0) continue;
         in_zone[p] = 1;
         if (first < 0) first = p; else zones.unite(first, p);
       }
-      if (body_points > 0 && first >= 0) {
-        body_velocity[first] += body_v / body_points;
-        body_contacts[first] += 1;
-      }
+      for (int p : pair.point)
+        if (p < 0 && first >= 0) body_references.push_back({first, start_of(p, pair.body), velocity_of(p, pair.body)});
     }
-    // Zone velocities: pinned vertices first, then touched bodies, else momentum-preserving.
-    std::vector<Vec3> momentum(vertex_count_, Vec3::Zero()), pinned_v(vertex_count_, Vec3::Zero()),
-        touched_v(vertex_count_, Vec3::Zero());
+    // Zone velocities. A zone held by kinematic references (its pinned vertices, and the body
+    // velocities at the cloth vertices that touched a body) moves with the affine velocity field
+    // that fits them best (least squares; minimum norm when they are fewer than four or
+    // coplanar): one reference gives a translation, several on a rotating limb give its
+    // rotation, so a zone pinned along a swinging limb can follow it. The body references are
+    // the body vertices of the colliding pairs (their start positions and velocities), so a
+    // zone caught on a rigidly moving body moves exactly with it. Other zones translate,
+    // keeping their momentum.
+    std::vector<Vec3> momentum(vertex_count_, Vec3::Zero()), ref_sum(vertex_count_, Vec3::Zero()),
+        ref_point(vertex_count_, Vec3::Zero());
     std::vector<double> mass(vertex_count_, 0.0);
-    std::vector<int> pinned_count(vertex_count_, 0), touched_count(vertex_count_, 0);
-    for (int i = 0; i < vertex_count_; ++i) {
-      if (!in_zone[i]) continue;
-      const int r = zones.find(i);
-      const Vec3 vi = row3(*v_, i);
-      if (inverse_mass_[i] == 0.0) {
-        pinned_v[r] += vi;
-        ++pinned_count[r];
-      } else {
-        mass[r] += 1.0 / inverse_mass_[i];
-        momentum[r] += vi / inverse_mass_[i];
+    std::vector<int> ref_count(vertex_count_, 0);
+    auto for_each_reference = [&](auto&& visit) {
+      for (int i = 0; i < vertex_count_; ++i) {
+        if (!in_zone[i]) continue;
+        const int r = zones.find(i);
+        if (inverse_mass_[i] == 0.0) visit(r, row3(*x_, i), Vec3(row3(*v_, i)));
       }
-      touched_v[r] += body_velocity[i];
-      touched_count[r] += body_contacts[i];
+      for (const BodyReference& ref : body_references) visit(zones.find(ref.cloth_vertex), ref.x, ref.v);
+    };
+    for (int i = 0; i < vertex_count_; ++i) {
+      if (!in_zone[i] || inverse_mass_[i] == 0.0) continue;
+      const int r = zones.find(i);
+      mass[r] += 1.0 / inverse_mass_[i];
+      momentum[r] += row3(*v_, i) / inverse_mass_[i];
     }
+    for_each_reference([&](int r, const Vec3& x, const Vec3& v) {
+      ref_point[r] += x;
+      ref_sum[r] += v;
+      ++ref_count[r];
+    });
+    std::vector<Eigen::Matrix3d> spread(vertex_count_, Eigen::Matrix3d::Zero()), moment(vertex_count_, Eigen::Matrix3d::Zero());
+    for_each_reference([&](int r, const Vec3& x, const Vec3& v) {
+      const Vec3 d = x - ref_point[r] / ref_count[r];
+      spread[r] += d * d.transpose();
+      moment[r] += (v - ref_sum[r] / ref_count[r]) * d.transpose();
+    });
+    std::vector<Eigen::Matrix3d> gradient(vertex_count_, Eigen::Matrix3d::Zero());
     zone_count = 0;
-    for (int i = 0; i < vertex_count_; ++i)
-      if (in_zone[i] && zones.find(i) == i) ++zone_count;
+    for (int i = 0; i < vertex_count_; ++i) {
+      if (!in_zone[i] || zones.find(i) != i) continue;
+      ++zone_count;
+      if (ref_count[i] < 2) continue;
+      // Pseudo-inverse of the references' spread (directions with no spread get no gradient).
+      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(spread[i]);
+      const double cutoff = 1e-10 * std::max(eigen.eigenvalues().maxCoeff(), 1e-300);
+      Eigen::Matrix3d inverse = Eigen::Matrix3d::Zero();
+      for (int k = 0; k < 3; ++k)
+        if (eigen.eigenvalues()[k] > cutoff)
+          inverse += eigen.eigenvectors().col(k) * eigen.eigenvectors().col(k).transpose() / eigen.eigenvalues()[k];
+      gradient[i] = moment[i] * inverse;
+    }
     for (int i = 0; i < vertex_count_; ++i) {
       if (!in_zone[i] || inverse_mass_[i] == 0.0) continue;
       const int r = zones.find(i);
       Vec3 vz;
-      if (pinned_count[r] > 0) vz = pinned_v[r] / pinned_count[r];
-      else if (touched_count[r] > 0) vz = touched_v[r] / touched_count[r];
-      else vz = momentum[r] / mass[r];
+      if (ref_count[r] > 0)
+        vz = ref_sum[r] / ref_count[r] + gradient[r] * (row3(*x_, i) - ref_point[r] / ref_count[r]);
+      else
+        vz = momentum[r] / mass[r];
       v_->row(i) = vz.transpose();
       x_end_.row(i) = x_->row(i) + h_ * v_->row(i);
       changed_[i] = 1;
