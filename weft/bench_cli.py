@@ -67,3 +67,39 @@ def bench_ccd(
                           f"{r['total_seconds_per_frame']:.4f}", str(r["ccd_hits"]), str(r["impact_zones"]),
                           str(r["max_intersections"]))
         out.print(table)
+
+
+@bench_app.command("gia")
+def bench_gia(
+    sizes: Annotated[str, typer.Option("--sizes", help="Bone-sheet grid sizes n (n x n vertices)")] = "21,41,81,161",
+    frames: Annotated[int, typer.Option("--frames", min=1, help="Frames per scaling run")] = 2,
+    threads: Annotated[int, typer.Option("--threads", min=1, max=256)] = 2,
+    cases: Annotated[bool, typer.Option("--cases/--no-cases", help="Also run the hard cases")] = True,
+    as_json: Annotated[bool, typer.Option("--json", help="Machine-readable output")] = False,
+) -> None:
+    """GIA seconds per step against vertex count, and GIA's share of the frame on the hard cases."""
+    from weft.bench_ccd import prefer_passive_openmp
+
+    prefer_passive_openmp()
+    from weft.bench_gia import hard_case_benchmark, scaling_benchmark
+
+    size_list = [int(s) for s in sizes.split(",") if s.strip()]
+    scaling = scaling_benchmark(size_list, frames, threads) if size_list else []
+    hard = hard_case_benchmark(threads) if cases else []
+    if as_json:
+        out.print_json(json.dumps({"scaling": scaling, "cases": hard}))
+        return
+    for title, rows in ((f"GIA against vertex count ({threads} thread(s))", scaling),
+                        (f"GIA on the hard cases ({threads} thread(s))", hard)):
+        if not rows:
+            continue
+        table = Table(title=title, title_justify="left")
+        for column in ("case", "vertices", "frames", "GIA ms/step", "total ms/frame", "GIA share", "max coloured",
+                       "max paths", "intersections first/last"):
+            table.add_column(column, justify="right")
+        for r in rows:
+            first, last = r["intersections_first_last"]
+            table.add_row(r["case"], str(r["vertices"]), str(r["frames"]), f"{1e3 * r['gia_seconds_per_step']:.2f}",
+                          f"{1e3 * r['total_seconds_per_frame']:.1f}", f"{100 * r['gia_share']:.1f} %",
+                          str(r["max_coloured_vertices"]), str(r["max_paths"]), f"{first}/{last}")
+        out.print(table)

@@ -1,0 +1,86 @@
+"""`weft bench gia`: the cost of global intersection analysis in the step. Per-step GIA seconds
+against vertex count (a sheet over a thin bone, tangled and clean), and GIA's share of the frame
+on the hard cases of docs/intersection-analysis.md. Figures come from the solver's own per-frame
+telemetry (gia_seconds, total_seconds), so they are the costs a shot pays."""
+
+from __future__ import annotations
+
+import tempfile
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+
+def run_shot(doc: dict[str, Any], base_dir: Path | None, threads: int) -> dict[str, Any]:
+    """Simulates a shot document; returns per-frame GIA and total seconds and GIA counts."""
+    from weft import _solver
+    from weft.scene import build_setup, parse_shot, resolve_scene
+
+    scene = resolve_scene(parse_shot(doc), base_dir or Path("."))
+    sim = _solver.Simulation(build_setup(scene, threads))
+    fps, substeps = scene.shot.fps, scene.shot.substeps
+    gia, total, coloured, paths, intersections = [], [], 0, 0, []
+    for index in range(1, scene.frame_count):
+        for b, body in enumerate(scene.bodies):
+            sim.set_body_keyframes(b, body.frames[index - 1], body.frames[index])
+        t = sim.advance_frame((index - 1) / fps, 1.0 / fps, substeps)
+        gia.append(t.gia_seconds)
+        total.append(t.total_seconds)
+        coloured = max(coloured, t.gia_coloured_vertices)
+        paths = max(paths, t.gia_paths)
+        intersections.append(t.intersections)
+    return {
+        "vertices": int(sum(p.vertex_count for p in scene.pieces)),
+        "frames": len(gia),
+        "substeps": substeps,
+        "gia_seconds_per_frame": float(np.mean(gia)),
+        "gia_seconds_per_step": float(np.mean(gia)) / substeps,
+        "total_seconds_per_frame": float(np.mean(total)),
+        "gia_share": float(np.sum(gia) / np.sum(total)),
+        "max_coloured_vertices": coloured,
+        "max_paths": paths,
+        "intersections_first_last": [intersections[0], intersections[-1]],
+    }
+
+
+def scaling_benchmark(sizes: list[int], frames: int, threads: int) -> list[dict[str, Any]]:
+    """Sheets of n x n vertices over the bone, with a patch pushed in (tangled) and without
+    (clean, GIA forced on: the cost of analysing a scene that has nothing to recover)."""
+    from weft.gia_scenes import bone_shot
+
+    rows = []
+    for n in sizes:
+        for tangled in (True, False):
+            doc = bone_shot(n=n, frames=frames + 1, patch=tangled, gia=True)
+            row = run_shot(doc, None, threads)
+            row["case"] = "bone, patch in" if tangled else "bone, clean"
+            rows.append(row)
+    return rows
+
+
+def hard_cases() -> dict[str, Callable[[Path], dict[str, Any]]]:
+    """The issue's hard cases, each a function of a scratch directory returning a shot."""
+    from weft.collision_scenes import sleeve_shot
+    from weft.gia_scenes import bone_shot, through_shot
+
+    return {
+        "bone: patch 7 mm in (21x21)": lambda d: bone_shot(n=21, frames=13),
+        "bone: 3 rows past the axis (41x41)": lambda d: bone_shot(n=41, half_width=0.0075, depth=-0.003, frames=13),
+        "bone: patch wholly through (21x21)": lambda d: through_shot(frames=13),
+        "sleeve on a fast limb, GIA on": lambda d: {**sleeve_shot(d, frames=13), "features": {"gia": True}},
+        "sleeve on a fast limb, GIA off": lambda d: {**sleeve_shot(d, frames=13), "features": {"gia": False}},
+    }
+
+
+def hard_case_benchmark(threads: int, only: str | None = None) -> list[dict[str, Any]]:
+    rows = []
+    for name, make in hard_cases().items():
+        if only and only not in name:
+            continue
+        with tempfile.TemporaryDirectory() as tmp:
+            row = run_shot(make(Path(tmp)), Path(tmp), threads)
+        row["case"] = name
+        rows.append(row)
+    return rows
