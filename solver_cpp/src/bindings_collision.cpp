@@ -103,7 +103,8 @@ void bind_collision(py::module_& m) {
       .def_readwrite("zone_iterations", &CollisionSettings::zone_iterations)
       .def_readwrite("count_intersections", &CollisionSettings::count_intersections)
       .def_readwrite("contact_constraints", &CollisionSettings::contact_constraints)
-      .def_readwrite("gia", &CollisionSettings::gia);
+      .def_readwrite("gia", &CollisionSettings::gia)
+      .def_readwrite("body_pinch", &CollisionSettings::body_pinch);
 
   auto setup = py::reinterpret_borrow<py::class_<SimulationSetup>>(m.attr("SimulationSetup"));
   setup.def_readwrite("collision", &SimulationSetup::collision);
@@ -130,7 +131,9 @@ void bind_collision(py::module_& m) {
       .def_property_readonly("gia_coloured_vertices",
                              [](const FrameTelemetry& t) { return t.collision.gia_coloured_vertices; })
       .def_property_readonly("gia_pushed_vertices",
-                             [](const FrameTelemetry& t) { return t.collision.gia_pushed_vertices; });
+                             [](const FrameTelemetry& t) { return t.collision.gia_pushed_vertices; })
+      .def_property_readonly("gia_pinched_body_pairs",
+                             [](const FrameTelemetry& t) { return t.collision.gia_pinched_body_pairs; });
 
   auto simulation = py::reinterpret_borrow<py::class_<Simulation>>(m.attr("Simulation"));
   simulation.def_property_readonly("collisions_enabled", [](const Simulation& s) { return s.collision_system() != nullptr; })

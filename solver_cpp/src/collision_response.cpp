@@ -58,6 +58,8 @@ void CollisionTelemetry::add(const CollisionTelemetry& o) {
   gia_seconds += o.gia_seconds;
   gia_coloured_vertices = std::max(gia_coloured_vertices, o.gia_coloured_vertices);
   gia_pushed_vertices += o.gia_pushed_vertices;
+  gia_pinched_body_pairs = std::max(gia_pinched_body_pairs, o.gia_pinched_body_pairs);
+  gia_gripped_vertices += o.gia_gripped_vertices;
   proximity_pairs += o.proximity_pairs;
   ccd_candidates += o.ccd_candidates;
   ccd_hits += o.ccd_hits;
@@ -149,6 +151,64 @@ CollisionSystem::CollisionSystem(const Faces& cloth_faces, const Positions& x, c
       n.erase(std::unique(n.begin(), n.end()), n.end());
     }
   }
+  std::vector<int> pinch_bodies;
+  for (size_t b = 0; b < bodies_.size(); ++b)
+    if (bodies_[b].collide) pinch_bodies.push_back(static_cast<int>(b));
+  if (gia_ && settings_.body_pinch && pinch_bodies.size() >= 2) {
+    pinch_ = std::make_unique<BodyPinchTracker>(pinch_bodies, threads_);
+    pinch_gripped_.assign(bodies_.size(), std::vector<char>(vertex_count_, 0));
+  }
+}
+
+void CollisionSystem::pinch_grip(int i, const BodyState& state) {
+  // The velocity of the closest body point (lowest face id on ties): cloth squeezed into a body
+  // by another moves with it, as friction of the squeeze would hold it.
+  const Vec3 p = row3(*x_, i);
+  double best = std::numeric_limits<double>::infinity();
+  Vec3 vb = Vec3::Zero();
+  for (int f = 0; f < state.faces.rows(); ++f) {
+    Vec3 bary;
+    const double d = point_triangle_distance(p, row3(state.start, state.faces(f, 0)), row3(state.start, state.faces(f, 1)),
+                                             row3(state.start, state.faces(f, 2)), bary);
+    if (!(d < best)) continue;
+    best = d;
+    vb.setZero();
+    for (int k = 0; k < 3; ++k) {
+      const int bv = state.faces(f, k);
+      vb += bary[k] * (row3(state.end, bv) - row3(state.start, bv)) / h_;
+    }
+  }
+  v_->row(i) = vb.transpose();
+  x_end_.row(i) = x_->row(i) + h_ * v_->row(i);
+  ++frame_.gia_gripped_vertices;
+}
+
+void CollisionSystem::pinch_update() {
+  const auto start = Clock::now();
+  std::vector<const Positions*> s(bodies_.size(), nullptr), e(bodies_.size(), nullptr);
+  std::vector<const Faces*> f(bodies_.size(), nullptr);
+  for (size_t b = 0; b < bodies_.size(); ++b) {
+    s[b] = &bodies_[b].start;
+    e[b] = &bodies_[b].end;
+    f[b] = &bodies_[b].faces;
+  }
+  const int active = pinch_->update(s, e, f);
+  frame_.gia_pinched_body_pairs = std::max(frame_.gia_pinched_body_pairs, active);
+  pinch_faces_.assign(bodies_.size(), {});
+  pinch_held_.assign(bodies_.size(), {});
+  if (active > 0) {
+    // Two thicknesses: cloth within one of the intersection volume touches both bodies, and
+    // recovery or proximity leaves cloth one thickness outside a body face bounding the volume
+    // (at the region's edge, where rounding would put it in or out step by step).
+    const double margin = 2.0 * default_thickness_;
+    triangle_boxes(cloth_faces_, *x_, x_end_, face_margin_, cloth_boxes_);
+    for (size_t b = 0; b < bodies_.size(); ++b) {
+      if (!bodies_[b].collide) continue;
+      pinch_->mark_faces(static_cast<int>(b), cloth_boxes_, margin, pinch_faces_[b]);
+      pinch_->mark_vertices(static_cast<int>(b), *x_, margin, pinch_held_[b]);
+    }
+  }
+  frame_.gia_seconds += since(start);
 }
 
 void CollisionSystem::gia_colour(const Positions& x) {
@@ -179,6 +239,21 @@ void CollisionSystem::gia_recover() {
       if (state.inside[i])
         for (int j : cloth_neighbours_[i])
           if (state.inside[j]) regions.unite(i, j);
+    // Body/body pinch (body_pinch.h): a coloured region with a vertex where this body and another
+    // intersect is gripped: it moves with the body (pushed out of one body it would go into the
+    // other) until they open, then leaves through the nearest face.
+    const int body = static_cast<int>(&state - bodies_.data());
+    std::vector<char> held;
+    std::vector<char>* gripped = pinch_ ? &pinch_gripped_[body] : nullptr;
+    if (gripped) {
+      for (int i = 0; i < vertex_count_; ++i) {
+        if (!state.inside[i]) (*gripped)[i] = 0;
+        else if (pinched_vertex(i, body)) {
+          if (held.empty()) held.assign(vertex_count_, 0);
+          held[regions.find(i)] = 1;
+        }
+      }
+    }
     std::vector<Vec3> region_towards(vertex_count_, Vec3::Zero());
     for (int i = 0; i < vertex_count_; ++i)
       if (state.inside[i])
@@ -186,15 +261,21 @@ void CollisionSystem::gia_recover() {
           if (!state.inside[j]) region_towards[regions.find(i)] += row3(*x_, j) - row3(*x_, i);
     for (int i = 0; i < vertex_count_; ++i) {
       if (!state.inside[i] || !vertex_collide_[i] || inverse_mass_[i] == 0.0) continue;
+      if (!held.empty() && held[regions.find(i)]) {
+        (*gripped)[i] = 1;
+        pinch_grip(i, state);
+        continue;
+      }
+      const bool released = gripped && (*gripped)[i];  // was gripped: every vertex, nearest face
       // Contour vertices only (an uncoloured neighbour); deep ones follow through the cloth.
       const bool contour = std::any_of(cloth_neighbours_[i].begin(), cloth_neighbours_[i].end(),
                                        [&](int j) { return !state.inside[j]; });
-      if (!contour) continue;
+      if (!contour && !released) continue;
       // Exit on the side of the uncoloured neighbours: along the region's direction, through
       // the first body face that ray crosses; else (no such direction or face) through the
       // nearest body face. Lowest face id on ties: deterministic.
       const Vec3 p = row3(*x_, i);
-      const Vec3 towards = region_towards[regions.find(i)];
+      const Vec3 towards = released ? Vec3::Zero() : region_towards[regions.find(i)];
       const int body_faces = static_cast<int>(state.faces.rows());
       auto corner = [&](int f, int k) { return row3(state.start, state.faces(f, k)); };
       double best = std::numeric_limits<double>::infinity();
@@ -332,8 +413,14 @@ void CollisionSystem::collect_pairs() {
   for (size_t b = 0; b < bodies_.size(); ++b) {
     if (!bodies_[b].collide) continue;
     body_triangle_pairs(static_cast<int>(b), true);
-    for (const auto& [cf, bf] : scratch_pairs_)
-      if (face_collide_[cf]) expand_triangle_pair(cf, bf, static_cast<int>(b), pairs_);
+    const std::vector<char>* pinched = pinch_faces_.empty() || pinch_faces_[b].empty() ? nullptr : &pinch_faces_[b];
+    for (const auto& [cf, bf] : scratch_pairs_) {
+      if (!face_collide_[cf]) continue;
+      const size_t first = pairs_.size();
+      expand_triangle_pair(cf, bf, static_cast<int>(b), pairs_);
+      if (pinched && (*pinched)[cf])  // cloth in a body/body pinch: proximity only, no CCD
+        for (size_t k = first; k < pairs_.size(); ++k) pairs_[k].ccd = false;
+    }
   }
   frame_.broad_phase_seconds += since(start);
 }
@@ -448,6 +535,7 @@ int CollisionSystem::ccd_pass(bool apply, std::vector<int>* hits, bool increment
   std::vector<double> toi(count, 1.0);
   auto run = [&](int k) {
     const FeaturePair& pair = pairs_[k];
+    if (!pair.ccd) return CcdResult{};
     if (incremental && !std::any_of(pair.point.begin(), pair.point.end(), [&](int p) { return p >= 0 && dirty[p]; }))
       return CcdResult{};
     std::array<Vec3, 4> s, e;
@@ -668,6 +756,7 @@ void CollisionSystem::respond(const Positions& x, Positions& v, double h, const 
   body_positions(bodies, alpha0, alpha1);
   changed_.assign(vertex_count_, 0);
   contact_friction();
+  if (pinch_) pinch_update();
   if (gia_) {
     gia_colour(x);
     gia_recover();

@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "bodies.h"
+#include "body_pinch.h"
 #include "broad_phase.h"
 #include "pcg.h"
 #include "proximity.h"
@@ -44,6 +45,9 @@ struct CollisionSettings {
   // Global intersection analysis against closed bodies (docs/intersection-analysis.md):
   // 0 off, 1 on, -1 on when some cloth vertex starts inside a closed collidable body.
   int gia = 0;
+  // Body/body pinch states (body_pinch.h) when GIA is on and two or more bodies collide: CCD off
+  // for cloth where two bodies intersect each other. Off only to compare (tests, diagnosis).
+  bool body_pinch = true;
 };
 
 struct CollisionTelemetry {
@@ -62,6 +66,8 @@ struct CollisionTelemetry {
   double gia_seconds = 0.0;     // cloth/body inside classification and recovery pushes
   int gia_coloured_vertices = 0;  // cloth vertices inside a closed body, most over the substeps
   int gia_pushed_vertices = 0;    // contour vertices pushed out, summed over substeps
+  int gia_pinched_body_pairs = 0;  // body pairs not free over a substep (body_pinch.h), most over the substeps
+  int gia_gripped_vertices = 0;    // cloth vertices moved with a body in a pinch, summed over substeps (not a column)
   double total_seconds() const {
     return broad_phase_seconds + proximity_seconds + ccd_seconds + response_seconds + intersection_seconds;
   }
@@ -74,6 +80,7 @@ struct FeaturePair {
   std::array<int, 4> point;
   int body = -1;
   bool edge_edge = false;
+  bool ccd = true;  // false: cloth in a body/body pinch region against one of the pair's bodies
 };
 
 class CollisionSystem {
@@ -103,6 +110,7 @@ class CollisionSystem {
   const CollisionSettings& settings() const { return settings_; }
   bool self_collision() const { return any_self_; }
   bool gia() const { return gia_; }
+  const BodyPinchTracker* pinch() const { return pinch_.get(); }
 
  private:
   struct BodyState {
@@ -119,6 +127,13 @@ class CollisionSystem {
   // pairs with that body are skipped: a one-way membrane) and push contour vertices out.
   void gia_colour(const Positions& x);
   void gia_recover();
+  // Body/body pinch states for this step (body_pinch.h) and the cloth faces in a non-free
+  // pair's region, per body: their pairs with that body get no CCD.
+  void pinch_update();
+  void pinch_grip(int p, const BodyState& state);
+  bool pinched_vertex(int p, int body) const {
+    return !pinch_held_.empty() && !pinch_held_[body].empty() && pinch_held_[body][p];
+  }
   bool coloured(int p, int body) const {
     return p >= 0 && gia_ && !bodies_[body].inside.empty() && bodies_[body].inside[p];
   }
@@ -158,6 +173,10 @@ class CollisionSystem {
   std::vector<Aabb> cloth_boxes_;
   std::vector<double> face_margin_;
   std::vector<BodyState> bodies_;
+  std::unique_ptr<BodyPinchTracker> pinch_;     // with GIA on and two or more collidable bodies
+  std::vector<std::vector<char>> pinch_faces_;  // per body, per cloth face (empty: none)
+  std::vector<std::vector<char>> pinch_held_;   // per body, per cloth vertex: in a pinch region (empty: none)
+  std::vector<std::vector<char>> pinch_gripped_;  // per body, per cloth vertex: inside it and gripped by a pinch
   double default_thickness_ = 0.002;
 
   // Per respond() call.
