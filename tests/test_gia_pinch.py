@@ -56,7 +56,7 @@ def run_pinch(tmp_path, body_pinch: bool = True) -> list[dict]:
             "frame": index, "pairs": t.gia_pinched_body_pairs, "intersections": t.intersections,
             "speed": float(np.linalg.norm(sim.velocities, axis=1).max()),
             "inside": [int((convex_depth(x, body.frames[index], body.faces) < 0).sum()) for body in scene.bodies],
-            "states": [p["state"] for p in sim.pinch_states()],
+            "states": [p["state"] for p in sim.pinch_states()], "gripped": t.gia_gripped_vertices,
         })
     return rows
 
@@ -76,6 +76,8 @@ def test_cloth_pinched_between_two_boxes_does_not_jitter_and_recovers(tmp_path):
     assert by_frame[max(PINCH_FRAMES)]["states"] == ["free"]
     # The cloth was squeezed: the upper box pushed part of it into the lower one.
     assert all(by_frame[f]["inside"][0] > 0 and by_frame[f]["intersections"] > 0 for f in CLOSED_FRAMES), trace
+    # ... and held there: gripped by the lower box in every substep while closed.
+    assert all(by_frame[f]["gripped"] >= 4 * by_frame[f]["inside"][0] for f in CLOSED_FRAMES), trace
     # No jitter while pinched.
     assert max(by_frame[f]["speed"] for f in CLOSED_FRAMES) < SPEED_BOUND, trace
     # Recovered once open: no intersection and no vertex inside either box, to the end.
@@ -90,7 +92,7 @@ def test_without_the_pinch_handling_the_squeezed_cloth_is_thrown_and_stays_tangl
     rows = run_pinch(tmp_path, body_pinch=False)
     print(summary(rows, "body_pinch = False"))
     trace = [(r["frame"], round(r["speed"], 3), r["intersections"]) for r in rows]
-    assert all(r["pairs"] == 0 and r["states"] == [] for r in rows)
+    assert all(r["pairs"] == 0 and r["states"] == [] and r["gripped"] == 0 for r in rows)
     assert max(r["speed"] for r in rows if r["frame"] in PINCH_FRAMES) > 4 * SPEED_BOUND, trace
     assert rows[-1]["intersections"] > 0, trace
 
