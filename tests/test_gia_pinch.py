@@ -38,8 +38,8 @@ def summary(rows: list[dict], label: str) -> str:
             f"{[r['inside'][0] for r in rows if r['frame'] in CLOSED_FRAMES]}")
 
 
-def run_pinch(tmp_path, body_pinch: bool = True) -> list[dict]:
-    doc = box_pinch_shot(tmp_path)
+def run_pinch(tmp_path, body_pinch: bool = True, depth: float = 0.003) -> list[dict]:
+    doc = box_pinch_shot(tmp_path, depth=depth)
     scene = make_scene(doc, tmp_path)
     assert collision_switches(scene)["gia"] == 1  # auto: the boxes intersect at some frame
     setup = build_setup(scene, 2)
@@ -95,6 +95,21 @@ def test_without_the_pinch_handling_the_squeezed_cloth_is_thrown_and_stays_tangl
     assert all(r["pairs"] == 0 and r["states"] == [] and r["gripped"] == 0 for r in rows)
     assert max(r["speed"] for r in rows if r["frame"] in PINCH_FRAMES) > 4 * SPEED_BOUND, trace
     assert rows[-1]["intersections"] > 0, trace
+
+
+def test_a_deeper_pinch_cuts_the_cloth_with_the_rim_and_it_still_recovers(tmp_path):
+    """6 mm interpenetration: the upper box's rim cuts cloth triangles (no vertex inside it)
+    while CCD is off. Those faces keep no CCD against the box (CCD would lock the tangle), so
+    two frames after the box lifts the cloth is free."""
+    rows = run_pinch(tmp_path, depth=0.006)
+    print(summary(rows, "6 mm"))
+    by_frame = {r["frame"]: r for r in rows}
+    trace = [(r["frame"], r["pairs"], round(r["speed"], 3), r["intersections"], r["inside"]) for r in rows]
+    assert [r["frame"] for r in rows if r["pairs"] == 1] == list(PINCH_FRAMES), trace
+    assert max(by_frame[f]["speed"] for f in CLOSED_FRAMES) < SPEED_BOUND, trace
+    assert by_frame[max(PINCH_FRAMES)]["intersections"] > 0 and by_frame[max(PINCH_FRAMES)]["inside"] == [0, 0]
+    after = [r for r in rows if r["frame"] >= max(PINCH_FRAMES) + 2]
+    assert all(r["intersections"] == 0 and r["inside"] == [0, 0] for r in after), trace
 
 
 def test_pinch_telemetry_is_in_the_cache(tmp_path):

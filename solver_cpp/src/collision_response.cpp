@@ -196,15 +196,38 @@ void CollisionSystem::pinch_update() {
   frame_.gia_pinched_body_pairs = std::max(frame_.gia_pinched_body_pairs, active);
   pinch_faces_.assign(bodies_.size(), {});
   pinch_held_.assign(bodies_.size(), {});
+  // Cloth faces already through a body (left by a pinch: the other body's rim cuts them while
+  // CCD is off) get no CCD against it either: CCD can only keep such an intersection, so after
+  // the pinch opens it would lock the tangle. Exact test on the broad phase's candidates.
+  triangle_boxes(cloth_faces_, *x_, x_end_, face_margin_, cloth_boxes_);
+  cloth_tree_.refit(cloth_boxes_);
+  for (size_t b = 0; b < bodies_.size(); ++b) {
+    BodyState& state = bodies_[b];
+    if (!state.collide) continue;
+    body_triangle_pairs(static_cast<int>(b), false);
+    for (const auto& [cf, bf] : scratch_pairs_) {
+      if (!face_collide_[cf] || (!pinch_faces_[b].empty() && pinch_faces_[b][cf])) continue;
+      const std::array<Vec3, 3> tc = {row3(*x_, cloth_faces_(cf, 0)), row3(*x_, cloth_faces_(cf, 1)),
+                                      row3(*x_, cloth_faces_(cf, 2))};
+      const std::array<Vec3, 3> tb = {row3(state.start, state.faces(bf, 0)), row3(state.start, state.faces(bf, 1)),
+                                      row3(state.start, state.faces(bf, 2))};
+      if (!triangles_intersect(tc, tb)) continue;
+      if (pinch_faces_[b].empty()) pinch_faces_[b].assign(cloth_faces_.rows(), 0);
+      pinch_faces_[b][cf] = 1;
+    }
+  }
   if (active > 0) {
     // Two thicknesses: cloth within one of the intersection volume touches both bodies, and
     // recovery or proximity leaves cloth one thickness outside a body face bounding the volume
     // (at the region's edge, where rounding would put it in or out step by step).
     const double margin = 2.0 * default_thickness_;
-    triangle_boxes(cloth_faces_, *x_, x_end_, face_margin_, cloth_boxes_);
     for (size_t b = 0; b < bodies_.size(); ++b) {
       if (!bodies_[b].collide) continue;
-      pinch_->mark_faces(static_cast<int>(b), cloth_boxes_, margin, pinch_faces_[b]);
+      std::vector<char> region;
+      pinch_->mark_faces(static_cast<int>(b), cloth_boxes_, margin, region);
+      if (pinch_faces_[b].empty()) pinch_faces_[b].swap(region);
+      else
+        for (size_t f = 0; f < region.size(); ++f) pinch_faces_[b][f] |= region[f];
       pinch_->mark_vertices(static_cast<int>(b), *x_, margin, pinch_held_[b]);
     }
   }
