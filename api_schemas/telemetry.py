@@ -40,6 +40,8 @@ TELEMETRY_COLUMNS: list[tuple[str, str, str]] = [
     ("gia_pushed_vertices", "i4", "contour vertices pushed out of bodies by GIA recovery, summed over substeps"),
     ("gia_paths", "i4", "cloth/body intersection paths at a substep's start, most over the frame (GIA)"),
     ("gia_body_coloured_faces", "i4", "body faces in intersection with the cloth at a substep's start, most over the frame (GIA)"),
+    ("gia_pinched_body_pairs", "i4",
+     "body pairs pinched, becoming pinched or becoming unpinched over a substep, most over the frame (GIA)"),
 ]
 
 
@@ -73,6 +75,7 @@ class FrameTelemetry(BaseModel):
     gia_pushed_vertices: int = 0
     gia_paths: int = 0
     gia_body_coloured_faces: int = 0
+    gia_pinched_body_pairs: int = 0
 
 
 assert list(FrameTelemetry.model_fields) == [c[0] for c in TELEMETRY_COLUMNS]

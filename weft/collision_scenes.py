@@ -185,3 +185,32 @@ def sleeve_shot(directory: Path, frames: int = 24, swing_frames: int = 4, amplit
     doc["cloth"][0]["pins"] = [{"vertices": list(range(around)), "body": "limb"}]
     doc["bodies"] = [{"name": "limb", "mesh": inline_mesh(limb_v, limb_f), "animation": {"path": "limb.npz"}}]
     return doc
+
+
+def box_pinch_shot(directory: Path, n: int = 16, width: float = 0.35, close: int = 5, hold: int = 6,
+                   after: int = 8, depth: float = 0.003, travel: float = 0.05, substeps: int = 4,
+                   gia: bool | None = None) -> dict[str, Any]:
+    """Cloth pinched between two boxes. A `width` sheet lies 2.5 mm above a fixed 0.4 x 0.1 x 0.4 m
+    box (top at y = 0); a 0.2 x 0.1 x 0.2 m box, its bottom `travel` above the top, comes down at
+    constant speed over `close` frames until the boxes interpenetrate by `depth` (the cloth
+    under it squeezed), stays closed `hold` frames, goes back up over `close` frames and stays
+    up `after` frames. Frame k (0-based) ends at keyframe k. The upper box's animation is
+    written to `directory`/upper.npz."""
+    lower_v, lower_f = box_mesh((0.4, 0.1, 0.4), (0.0, -0.05, 0.0))
+    upper_v, upper_f = box_mesh((0.2, 0.1, 0.2), (0.0, 0.05, 0.0))  # bottom at y = 0
+    step = (travel + depth) / close
+    bottoms = ([travel - step * k for k in range(close + 1)] + [-depth] * (hold - 1)
+               + [-depth + step * k for k in range(close + 1)] + [travel] * after)
+    animation = np.stack([upper_v + [0.0, b, 0.0] for b in bottoms])
+    directory.mkdir(parents=True, exist_ok=True)
+    np.savez(directory / "upper.npz", positions=animation)
+    doc = sheet_shot("box_pinch", n, n, width, width, plane="xz", origin=(-width / 2, 0.0025, -width / 2),
+                     frames=len(bottoms), substeps=substeps, material={"friction": 0.5, "damping": 0.01},
+                     air_drag=0.2)
+    doc["bodies"] = [
+        {"name": "lower", "mesh": inline_mesh(lower_v, lower_f)},
+        {"name": "upper", "mesh": inline_mesh(animation[0], upper_f), "animation": {"path": "upper.npz"}},
+    ]
+    if gia is not None:
+        doc["features"] = {"gia": gia}
+    return doc

@@ -481,8 +481,12 @@ def collision_switches(scene: Scene) -> dict[str, Any]:
       for a single free piece such as a flag, which then pays nothing for it. Cloth/cloth pairs
       are tested between faces that both have self-collision on, also across pieces.
     - CCD (``features.ccd``): on whenever any collision is on.
-    - GIA (``features.gia``): recovery of cloth inside closed bodies; None means on when some
-      cloth vertex starts inside a closed collidable body (decided by the solver at setup).
+    - GIA (``features.gia``): recovery of cloth inside closed bodies, and body/body pinch states
+      (CCD off for cloth caught where two collidable bodies intersect each other). None means
+      on when two collidable bodies intersect each other at some animation frame (decided here,
+      ``bodies_intersect_each_other``: exact test per frame, bounding boxes first) or, failing
+      that, when some cloth vertex starts inside a closed collidable body (decided by the
+      solver at setup: ``gia`` stays -1 here).
     A switch set to false at the scene level turns the feature off for every piece.
     """
     shot = scene.shot
@@ -505,6 +509,8 @@ def collision_switches(scene: Scene) -> dict[str, Any]:
     enabled = any_body or any(piece_self)
     ccd = enabled and (features.ccd if features.ccd is not None else True)
     gia = (-1 if features.gia is None else int(bool(features.gia))) if any_body else 0
+    if gia == -1 and bodies_intersect_each_other(scene, body_collide):
+        gia = 1
     return {
         "enabled": enabled,
         "ccd": ccd,
@@ -513,6 +519,34 @@ def collision_switches(scene: Scene) -> dict[str, Any]:
         "piece_self_collide": piece_self,
         "body_collide": body_collide,
     }
+
+
+def bodies_intersect_each_other(scene: Scene, body_collide: list[bool] | None = None) -> bool:
+    """Whether two collidable bodies intersect each other (surfaces cross, or a vertex of one is
+    inside the other, closed, body) at some animation frame. Exact (``_solver.body_intersection``);
+    frames whose bounding boxes do not overlap are skipped, and a frame where both bodies are
+    where they were at the last tested frame reuses its answer, so long or static shots stay cheap.
+    Motion between keyframes is not looked at."""
+    from weft import _solver
+
+    bodies = [b for b, c in zip(scene.bodies, body_collide or [True] * len(scene.bodies)) if c]
+    if len(bodies) < 2:
+        return False
+    lo = [b.frames.min(axis=1) for b in bodies]  # (frames, 3) per body
+    hi = [b.frames.max(axis=1) for b in bodies]
+    for i in range(len(bodies)):
+        for j in range(i + 1, len(bodies)):
+            overlap = np.all((lo[i] <= hi[j]) & (lo[j] <= hi[i]), axis=1)
+            last: tuple[np.ndarray, np.ndarray] | None = None
+            for k in np.flatnonzero(overlap):
+                xa, xb = bodies[i].frames[k], bodies[j].frames[k]
+                if last is not None and np.array_equal(xa, last[0]) and np.array_equal(xb, last[1]):
+                    continue  # same as the last tested frame: not intersecting
+                if _solver.body_intersection(np.ascontiguousarray(xa), bodies[i].faces,
+                                             np.ascontiguousarray(xb), bodies[j].faces)["intersecting"]:
+                    return True
+                last = (xa, xb)
+    return False
 
 
 def collision_settings(scene: Scene) -> Any:

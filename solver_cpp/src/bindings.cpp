@@ -11,6 +11,9 @@ using namespace weft;
 
 void bind_collision(py::module_& m);  // bindings_collision.cpp
 void bind_linear_system(py::module_& m);  // bindings_linear.cpp
+namespace weft {
+void bind_pinch(py::module_& m);  // bindings_pinch.cpp
+}
 
 PYBIND11_MODULE(_solver, m) {
   m.doc() = "weft implicit cloth solver (C++ core)";
@@ -125,4 +128,5 @@ PYBIND11_MODULE(_solver, m) {
   m.def("hinge_angle", &hinge_angle, py::arg("x0"), py::arg("x1"), py::arg("x2"), py::arg("x3"));
   bind_gia(m);
   bind_collision(m);
+  weft::bind_pinch(m);
 }

@@ -103,7 +103,8 @@ void bind_collision(py::module_& m) {
       .def_readwrite("zone_iterations", &CollisionSettings::zone_iterations)
       .def_readwrite("count_intersections", &CollisionSettings::count_intersections)
       .def_readwrite("contact_constraints", &CollisionSettings::contact_constraints)
-      .def_readwrite("gia", &CollisionSettings::gia);
+      .def_readwrite("gia", &CollisionSettings::gia)
+      .def_readwrite("body_pinch", &CollisionSettings::body_pinch);
 
   auto setup = py::reinterpret_borrow<py::class_<SimulationSetup>>(m.attr("SimulationSetup"));
   setup.def_readwrite("collision", &SimulationSetup::collision);
@@ -133,7 +134,11 @@ void bind_collision(py::module_& m) {
                              [](const FrameTelemetry& t) { return t.collision.gia_pushed_vertices; })
       .def_property_readonly("gia_paths", [](const FrameTelemetry& t) { return t.collision.gia_paths; })
       .def_property_readonly("gia_body_coloured_faces",
-                             [](const FrameTelemetry& t) { return t.collision.gia_body_coloured_faces; });
+                             [](const FrameTelemetry& t) { return t.collision.gia_body_coloured_faces; })
+      .def_property_readonly("gia_pinched_body_pairs",
+                             [](const FrameTelemetry& t) { return t.collision.gia_pinched_body_pairs; })
+      .def_property_readonly("gia_gripped_vertices",  // diagnostic, not a cache column
+                             [](const FrameTelemetry& t) { return t.collision.gia_gripped_vertices; });
 
   auto simulation = py::reinterpret_borrow<py::class_<Simulation>>(m.attr("Simulation"));
   simulation.def_property_readonly("collisions_enabled", [](const Simulation& s) { return s.collision_system() != nullptr; })

@@ -62,6 +62,8 @@ void CollisionTelemetry::add(const CollisionTelemetry& o) {
   gia_pushed_vertices += o.gia_pushed_vertices;
   gia_paths = std::max(gia_paths, o.gia_paths);
   gia_body_coloured_faces = std::max(gia_body_coloured_faces, o.gia_body_coloured_faces);
+  gia_pinched_body_pairs = std::max(gia_pinched_body_pairs, o.gia_pinched_body_pairs);
+  gia_gripped_vertices += o.gia_gripped_vertices;
   proximity_pairs += o.proximity_pairs;
   ccd_candidates += o.ccd_candidates;
   ccd_hits += o.ccd_hits;
@@ -160,6 +162,87 @@ CollisionSystem::CollisionSystem(const Faces& cloth_faces, const Positions& x, c
       n.erase(std::unique(n.begin(), n.end()), n.end());
     }
   }
+  std::vector<int> pinch_bodies;
+  for (size_t b = 0; b < bodies_.size(); ++b)
+    if (bodies_[b].collide) pinch_bodies.push_back(static_cast<int>(b));
+  if (gia_ && settings_.body_pinch && pinch_bodies.size() >= 2) {
+    pinch_ = std::make_unique<BodyPinchTracker>(pinch_bodies, threads_);
+    pinch_gripped_.assign(bodies_.size(), std::vector<char>(vertex_count_, 0));
+  }
+}
+
+void CollisionSystem::pinch_grip(int i, const BodyState& state) {
+  // The velocity of the closest body point (lowest face id on ties): cloth squeezed into a body
+  // by another moves with it, as friction of the squeeze would hold it.
+  const Vec3 p = row3(*x_, i);
+  double best = std::numeric_limits<double>::infinity();
+  Vec3 vb = Vec3::Zero();
+  for (int f = 0; f < state.faces.rows(); ++f) {
+    Vec3 bary;
+    const double d = point_triangle_distance(p, row3(state.start, state.faces(f, 0)), row3(state.start, state.faces(f, 1)),
+                                             row3(state.start, state.faces(f, 2)), bary);
+    if (!(d < best)) continue;
+    best = d;
+    vb.setZero();
+    for (int k = 0; k < 3; ++k) {
+      const int bv = state.faces(f, k);
+      vb += bary[k] * (row3(state.end, bv) - row3(state.start, bv)) / h_;
+    }
+  }
+  v_->row(i) = vb.transpose();
+  x_end_.row(i) = x_->row(i) + h_ * v_->row(i);
+  ++frame_.gia_gripped_vertices;
+}
+
+void CollisionSystem::pinch_update() {
+  const auto start = Clock::now();
+  std::vector<const Positions*> s(bodies_.size(), nullptr), e(bodies_.size(), nullptr);
+  std::vector<const Faces*> f(bodies_.size(), nullptr);
+  for (size_t b = 0; b < bodies_.size(); ++b) {
+    s[b] = &bodies_[b].start;
+    e[b] = &bodies_[b].end;
+    f[b] = &bodies_[b].faces;
+  }
+  const int active = pinch_->update(s, e, f);
+  frame_.gia_pinched_body_pairs = std::max(frame_.gia_pinched_body_pairs, active);
+  pinch_faces_.assign(bodies_.size(), {});
+  pinch_held_.assign(bodies_.size(), {});
+  // Cloth faces already through a body (left by a pinch: the other body's rim cuts them while
+  // CCD is off) get no CCD against it either: CCD can only keep such an intersection, so after
+  // the pinch opens it would lock the tangle. Exact test on the broad phase's candidates.
+  triangle_boxes(cloth_faces_, *x_, x_end_, face_margin_, cloth_boxes_);
+  cloth_tree_.refit(cloth_boxes_);
+  for (size_t b = 0; b < bodies_.size(); ++b) {
+    BodyState& state = bodies_[b];
+    if (!state.collide) continue;
+    body_triangle_pairs(static_cast<int>(b), false);
+    for (const auto& [cf, bf] : scratch_pairs_) {
+      if (!face_collide_[cf] || (!pinch_faces_[b].empty() && pinch_faces_[b][cf])) continue;
+      const std::array<Vec3, 3> tc = {row3(*x_, cloth_faces_(cf, 0)), row3(*x_, cloth_faces_(cf, 1)),
+                                      row3(*x_, cloth_faces_(cf, 2))};
+      const std::array<Vec3, 3> tb = {row3(state.start, state.faces(bf, 0)), row3(state.start, state.faces(bf, 1)),
+                                      row3(state.start, state.faces(bf, 2))};
+      if (!triangles_intersect(tc, tb)) continue;
+      if (pinch_faces_[b].empty()) pinch_faces_[b].assign(cloth_faces_.rows(), 0);
+      pinch_faces_[b][cf] = 1;
+    }
+  }
+  if (active > 0) {
+    // Two thicknesses: cloth within one of the intersection volume touches both bodies, and
+    // recovery or proximity leaves cloth one thickness outside a body face bounding the volume
+    // (at the region's edge, where rounding would put it in or out step by step).
+    const double margin = 2.0 * default_thickness_;
+    for (size_t b = 0; b < bodies_.size(); ++b) {
+      if (!bodies_[b].collide) continue;
+      std::vector<char> region;
+      pinch_->mark_faces(static_cast<int>(b), cloth_boxes_, margin, region);
+      if (pinch_faces_[b].empty()) pinch_faces_[b].swap(region);
+      else
+        for (size_t f = 0; f < region.size(); ++f) pinch_faces_[b][f] |= region[f];
+      pinch_->mark_vertices(static_cast<int>(b), *x_, margin, pinch_held_[b]);
+    }
+  }
+  frame_.gia_seconds += since(start);
 }
 
 void CollisionSystem::gia_colour(const Positions& x) {
@@ -188,7 +271,8 @@ void CollisionSystem::gia_colour(const Positions& x) {
     for (int f = 0; f < faces; ++f) {
       int coloured_corners = 0;
       for (int k = 0; k < 3; ++k) coloured_corners += state.vertex_coloured[state.faces(f, k)] != 0;
-      state.face_coloured[f] = coloured_corners == 3 ? 2 : (coloured_corners > 0 || body.face_colour[f] == kGiaContour);
+      // Pierced faces with no coloured corner stay closed to the membrane (see expand_triangle_pair).
+      state.face_coloured[f] = coloured_corners == 3 ? 3 : coloured_corners > 0 ? 2 : body.face_colour[f] == kGiaContour ? 1 : 0;
       body_faces += state.face_coloured[f] != 0;
     }
     state.cloth_face_contour.assign(cloth_faces_.rows(), 0);
@@ -216,6 +300,21 @@ void CollisionSystem::gia_recover() {
       if (state.inside[i])
         for (int j : cloth_neighbours_[i])
           if (state.inside[j]) regions.unite(i, j);
+    // Body/body pinch (body_pinch.h): a coloured region with a vertex where this body and another
+    // intersect is gripped: it moves with the body (pushed out of one body it would go into the
+    // other) until they open, then leaves through the nearest face.
+    const int body = static_cast<int>(&state - bodies_.data());
+    std::vector<char> held;
+    std::vector<char>* gripped = pinch_ ? &pinch_gripped_[body] : nullptr;
+    if (gripped) {
+      for (int i = 0; i < vertex_count_; ++i) {
+        if (!state.inside[i]) (*gripped)[i] = 0;
+        else if (pinched_vertex(i, body)) {
+          if (held.empty()) held.assign(vertex_count_, 0);
+          held[regions.find(i)] = 1;
+        }
+      }
+    }
     std::vector<Vec3> region_towards(vertex_count_, Vec3::Zero());
     for (int i = 0; i < vertex_count_; ++i)
       if (state.inside[i])
@@ -223,15 +322,21 @@ void CollisionSystem::gia_recover() {
           if (!state.inside[j]) region_towards[regions.find(i)] += row3(*x_, j) - row3(*x_, i);
     for (int i = 0; i < vertex_count_; ++i) {
       if (!state.inside[i] || !vertex_collide_[i] || inverse_mass_[i] == 0.0) continue;
+      if (!held.empty() && held[regions.find(i)]) {
+        (*gripped)[i] = 1;
+        pinch_grip(i, state);
+        continue;
+      }
+      const bool released = gripped && (*gripped)[i];  // was gripped: every vertex, nearest face
       // Contour vertices only (an uncoloured neighbour); deep ones follow through the cloth.
       const bool contour = std::any_of(cloth_neighbours_[i].begin(), cloth_neighbours_[i].end(),
                                        [&](int j) { return !state.inside[j]; });
-      if (!contour) continue;
+      if (!contour && !released) continue;
       // Exit on the side of the uncoloured neighbours: along the region's direction, through
       // the first body face that ray crosses; else (no such direction or face) through the
       // nearest body face. Lowest face id on ties: deterministic.
       const Vec3 p = row3(*x_, i);
-      const Vec3 towards = region_towards[regions.find(i)];
+      const Vec3 towards = released ? Vec3::Zero() : region_towards[regions.find(i)];
       const int body_faces = static_cast<int>(state.faces.rows());
       auto corner = [&](int f, int k) { return row3(state.start, state.faces(f, k)); };
       double best = std::numeric_limits<double>::infinity();
@@ -274,7 +379,9 @@ void CollisionSystem::gia_recover() {
       // Proximity gating (the seed's rule): respond only when the face the vertex would exit
       // through is itself in intersection with the cloth; exiting through a free face would
       // put the cloth on the wrong side of the body.
-      if (best_face < 0 || !state.face_coloured[best_face]) continue;
+      // Cloth released by an opened pinch leaves through the nearest face whatever its colour:
+      // it was gripped by this body, so the side it entered from is not known.
+      if (best_face < 0 || (!released && !state.face_coloured[best_face])) continue;
       Vec3 q = Vec3::Zero(), vb = Vec3::Zero();
       for (int k = 0; k < 3; ++k) {
         const int bv = state.faces(best_face, k);
@@ -342,8 +449,12 @@ void CollisionSystem::expand_triangle_pair(int cf, int of, int body, std::vector
   // A body face wholly in the body's coloured region lets all cloth pass; one on the contour
   // lets pass only cloth triangles that are themselves on the contour (pierced by the body or
   // piercing it), so cloth away from the intersection still cannot enter.
+  // Faces only pierced (no coloured corner) are opened the same way except in a body/body
+  // pinch region: there the squeezed cloth is on the contour of both bodies, and opening the
+  // pierced faces of a coarse body (a box's top) let it sink into the lower box.
   const int body_colour = body_face_colour(of, body);
-  if (body_colour == 2 || (body_colour == 1 && cloth_face_contour(cf, body))) return;
+  const bool in_pinch = !pinch_faces_.empty() && !pinch_faces_[body].empty() && pinch_faces_[body][cf];
+  if (body_colour == 3 || (body_colour >= 1 && cloth_face_contour(cf, body) && (body_colour == 2 || !in_pinch))) return;
   // GIA one-way membrane: features with a cloth vertex coloured inside this body are skipped.
   for (int v : cloth_own_.face_vertices[cf])
     if (!coloured(v, body))
@@ -380,8 +491,14 @@ void CollisionSystem::collect_pairs() {
   for (size_t b = 0; b < bodies_.size(); ++b) {
     if (!bodies_[b].collide) continue;
     body_triangle_pairs(static_cast<int>(b), true);
-    for (const auto& [cf, bf] : scratch_pairs_)
-      if (face_collide_[cf]) expand_triangle_pair(cf, bf, static_cast<int>(b), pairs_);
+    const std::vector<char>* pinched = pinch_faces_.empty() || pinch_faces_[b].empty() ? nullptr : &pinch_faces_[b];
+    for (const auto& [cf, bf] : scratch_pairs_) {
+      if (!face_collide_[cf]) continue;
+      const size_t first = pairs_.size();
+      expand_triangle_pair(cf, bf, static_cast<int>(b), pairs_);
+      if (pinched && (*pinched)[cf])  // cloth in a body/body pinch: proximity only, no CCD
+        for (size_t k = first; k < pairs_.size(); ++k) pairs_[k].ccd = false;
+    }
   }
   frame_.broad_phase_seconds += since(start);
 }
@@ -496,6 +613,7 @@ int CollisionSystem::ccd_pass(bool apply, std::vector<int>* hits, bool increment
   std::vector<double> toi(count, 1.0);
   auto run = [&](int k) {
     const FeaturePair& pair = pairs_[k];
+    if (!pair.ccd) return CcdResult{};
     if (incremental && !std::any_of(pair.point.begin(), pair.point.end(), [&](int p) { return p >= 0 && dirty[p]; }))
       return CcdResult{};
     std::array<Vec3, 4> s, e;
@@ -742,6 +860,7 @@ void CollisionSystem::respond(const Positions& x, Positions& v, double h, const 
   body_positions(bodies, alpha0, alpha1);
   changed_.assign(vertex_count_, 0);
   contact_friction();
+  if (pinch_) pinch_update();
   if (gia_) {
     gia_colour(x);
     gia_recover();

@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "bodies.h"
+#include "body_pinch.h"
 #include "broad_phase.h"
 #include "pcg.h"
 #include "proximity.h"
@@ -44,6 +45,9 @@ struct CollisionSettings {
   // Global intersection analysis against closed bodies (docs/intersection-analysis.md):
   // 0 off, 1 on, -1 on when some cloth vertex starts inside a closed collidable body.
   int gia = 0;
+  // Body/body pinch states (body_pinch.h) when GIA is on and two or more bodies collide: CCD off
+  // for cloth where two bodies intersect each other. Off only to compare (tests, diagnosis).
+  bool body_pinch = true;
 };
 
 struct CollisionTelemetry {
@@ -64,6 +68,8 @@ struct CollisionTelemetry {
   int gia_pushed_vertices = 0;    // contour vertices pushed out, summed over substeps
   int gia_paths = 0;              // cloth/body intersection paths at a substep start, most over the frame
   int gia_body_coloured_faces = 0;  // body faces in intersection with the cloth, most over the frame
+  int gia_pinched_body_pairs = 0;  // body pairs not free over a substep (body_pinch.h), most over the substeps
+  int gia_gripped_vertices = 0;    // cloth vertices moved with a body in a pinch, summed over substeps (not a column)
   double total_seconds() const {
     return broad_phase_seconds + proximity_seconds + ccd_seconds + response_seconds + intersection_seconds;
   }
@@ -76,6 +82,7 @@ struct FeaturePair {
   std::array<int, 4> point;
   int body = -1;
   bool edge_edge = false;
+  bool ccd = true;  // false: cloth in a body/body pinch region against one of the pair's bodies
 };
 
 class CollisionSystem {
@@ -105,6 +112,7 @@ class CollisionSystem {
   const CollisionSettings& settings() const { return settings_; }
   bool self_collision() const { return any_self_; }
   bool gia() const { return gia_; }
+  const BodyPinchTracker* pinch() const { return pinch_.get(); }
 
  private:
   struct BodyState {
@@ -117,8 +125,8 @@ class CollisionSystem {
     bool closed = false;        // watertight: GIA classifies cloth vertices inside it
     // GIA of the cloth against this body at the step's start (empty when not run):
     std::vector<char> inside;         // per cloth vertex: inside the body (coloured)
-    // per body face: 2 all vertices in the body's coloured region (in intersection with the
-    // cloth), 1 some vertex in it or pierced by the cloth (on the contour), 0 free
+    // per body face: 3 all vertices in the body's coloured region (in intersection with the
+    // cloth), 2 some vertex in it, 1 none but pierced by the cloth, 0 free
     std::vector<char> face_coloured;
     std::vector<char> vertex_coloured;   // per body vertex: in the body's coloured region
     std::vector<char> cloth_face_contour;  // per cloth face: it and the body pierce each other
@@ -127,6 +135,13 @@ class CollisionSystem {
   // pairs with that body are skipped: a one-way membrane) and push contour vertices out.
   void gia_colour(const Positions& x);
   void gia_recover();
+  // Body/body pinch states for this step (body_pinch.h) and the cloth faces in a non-free
+  // pair's region, per body: their pairs with that body get no CCD.
+  void pinch_update();
+  void pinch_grip(int p, const BodyState& state);
+  bool pinched_vertex(int p, int body) const {
+    return !pinch_held_.empty() && !pinch_held_[body].empty() && pinch_held_[body][p];
+  }
   bool coloured(int p, int body) const {
     return p >= 0 && gia_ && !bodies_[body].inside.empty() && bodies_[body].inside[p];
   }
@@ -175,6 +190,10 @@ class CollisionSystem {
   std::vector<Aabb> cloth_boxes_;
   std::vector<double> face_margin_;
   std::vector<BodyState> bodies_;
+  std::unique_ptr<BodyPinchTracker> pinch_;     // with GIA on and two or more collidable bodies
+  std::vector<std::vector<char>> pinch_faces_;  // per body, per cloth face (empty: none)
+  std::vector<std::vector<char>> pinch_held_;   // per body, per cloth vertex: in a pinch region (empty: none)
+  std::vector<std::vector<char>> pinch_gripped_;  // per body, per cloth vertex: inside it and gripped by a pinch
   double default_thickness_ = 0.002;
 
   // Per respond() call.

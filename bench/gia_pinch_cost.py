@@ -1,0 +1,34 @@
+"""Cost of the body/body pinch states on the box pinch (docs/intersection-analysis.md):
+`python -m bench.gia_pinch_cost` runs `box_pinch_shot` through ShotRunner (2 threads) and
+prints the pinched column and gia_seconds against the frame time."""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+
+os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+
+import numpy as np  # noqa: E402
+
+from weft.collision_scenes import box_pinch_shot  # noqa: E402
+from weft.runner import ShotRunner  # noqa: E402
+from weft.scene import parse_shot, resolve_scene  # noqa: E402
+
+
+def main() -> None:
+    with tempfile.TemporaryDirectory() as tmp:
+        d = Path(tmp)
+        scene = resolve_scene(parse_shot(box_pinch_shot(d)), d)
+        summary = ShotRunner(scene, d / "pinch.h5", threads=2).run()
+    t = summary.telemetry[1:]
+    gia = np.array([r.gia_seconds for r in t])
+    total = np.array([r.total_seconds for r in t])
+    print("gia_pinched_body_pairs", [r.gia_pinched_body_pairs for r in t])
+    print(f"gia_seconds per frame: median {np.median(gia):.2e} s, max {gia.max():.2e} s; frame total median "
+          f"{np.median(total):.2e} s; GIA share {100 * gia.sum() / total.sum():.1f} %")
+
+
+if __name__ == "__main__":
+    main()
