@@ -62,7 +62,7 @@ def scaling_benchmark(sizes: list[int], frames: int, threads: int) -> list[dict[
 
 def hard_cases() -> dict[str, Callable[[Path], dict[str, Any]]]:
     """The issue's hard cases, each a function of a scratch directory returning a shot."""
-    from weft.collision_scenes import sleeve_shot
+    from weft.collision_scenes import box_pinch_shot, sleeve_shot
     from weft.gia_scenes import bone_shot, through_shot
 
     return {
@@ -71,6 +71,7 @@ def hard_cases() -> dict[str, Callable[[Path], dict[str, Any]]]:
         "bone: patch wholly through (21x21)": lambda d: through_shot(frames=13),
         "sleeve on a fast limb, GIA on": lambda d: {**sleeve_shot(d, frames=13), "features": {"gia": True}},
         "sleeve on a fast limb, GIA off": lambda d: {**sleeve_shot(d, frames=13), "features": {"gia": False}},
+        "cloth pinched between two boxes (16x16)": lambda d: box_pinch_shot(d),
     }
 
 
