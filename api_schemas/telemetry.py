@@ -38,6 +38,8 @@ TELEMETRY_COLUMNS: list[tuple[str, str, str]] = [
     # GIA against closed bodies (docs/intersection-analysis.md); gia_seconds is above.
     ("gia_coloured_vertices", "i4", "cloth vertices inside a closed body at a substep's start, most over the frame (GIA)"),
     ("gia_pushed_vertices", "i4", "contour vertices pushed out of bodies by GIA recovery, summed over substeps"),
+    ("gia_self_coloured_vertices", "i4", "cloth vertices coloured by cloth/cloth GIA at a substep's start, most over the frame"),
+    ("gia_self_paths", "i4", "cloth/cloth intersection paths at a substep's start, most over the frame (GIA)"),
 ]
 
 
@@ -69,6 +71,8 @@ class FrameTelemetry(BaseModel):
     intersections: int = -1
     gia_coloured_vertices: int = 0
     gia_pushed_vertices: int = 0
+    gia_self_coloured_vertices: int = 0
+    gia_self_paths: int = 0
 
 
 assert list(FrameTelemetry.model_fields) == [c[0] for c in TELEMETRY_COLUMNS]

@@ -130,7 +130,10 @@ void bind_collision(py::module_& m) {
       .def_property_readonly("gia_coloured_vertices",
                              [](const FrameTelemetry& t) { return t.collision.gia_coloured_vertices; })
       .def_property_readonly("gia_pushed_vertices",
-                             [](const FrameTelemetry& t) { return t.collision.gia_pushed_vertices; });
+                             [](const FrameTelemetry& t) { return t.collision.gia_pushed_vertices; })
+      .def_property_readonly("gia_self_coloured_vertices",
+                             [](const FrameTelemetry& t) { return t.collision.gia_self_coloured_vertices; })
+      .def_property_readonly("gia_self_paths", [](const FrameTelemetry& t) { return t.collision.gia_self_paths; });
 
   auto simulation = py::reinterpret_borrow<py::class_<Simulation>>(m.attr("Simulation"));
   simulation.def_property_readonly("collisions_enabled", [](const Simulation& s) { return s.collision_system() != nullptr; })

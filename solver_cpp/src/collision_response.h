@@ -21,6 +21,7 @@
 
 #include "bodies.h"
 #include "broad_phase.h"
+#include "cloth_untangling.h"
 #include "pcg.h"
 #include "proximity.h"
 
@@ -41,8 +42,10 @@ struct CollisionSettings {
   // default: the simple release rule (a vertex leaving faster than its push-out is not
   // constrained) made resting contact jitter in the box drop (docs/collisions.md).
   bool contact_constraints = false;
-  // Global intersection analysis against closed bodies (docs/intersection-analysis.md):
-  // 0 off, 1 on, -1 on when some cloth vertex starts inside a closed collidable body.
+  // Global intersection analysis (docs/intersection-analysis.md): against closed bodies and,
+  // with self-collision, cloth/cloth untangling (cloth_untangling.h). 0 off, 1 on, -1 on when
+  // some cloth vertex starts inside a closed collidable body or the self-colliding cloth
+  // starts self-intersecting.
   int gia = 0;
 };
 
@@ -62,6 +65,8 @@ struct CollisionTelemetry {
   double gia_seconds = 0.0;     // cloth/body inside classification and recovery pushes
   int gia_coloured_vertices = 0;  // cloth vertices inside a closed body, most over the substeps
   int gia_pushed_vertices = 0;    // contour vertices pushed out, summed over substeps
+  int gia_self_coloured_vertices = 0;  // cloth/cloth GIA: coloured vertices, most over the substeps
+  int gia_self_paths = 0;              // cloth/cloth GIA: intersection paths, most over the substeps
   double total_seconds() const {
     return broad_phase_seconds + proximity_seconds + ccd_seconds + response_seconds + intersection_seconds;
   }
@@ -119,6 +124,8 @@ class CollisionSystem {
   // pairs with that body are skipped: a one-way membrane) and push contour vertices out.
   void gia_colour(const Positions& x);
   void gia_recover();
+  // Cloth/cloth GIA at the start of a step: analyse, then pull crossing edges back through.
+  void gia_untangle();
   bool coloured(int p, int body) const {
     return p >= 0 && gia_ && !bodies_[body].inside.empty() && bodies_[body].inside[p];
   }
@@ -153,6 +160,7 @@ class CollisionSystem {
   bool any_self_ = false, any_body_ = false, gia_ = false;
   std::vector<std::vector<int>> cloth_neighbours_;  // GIA contour test
   std::vector<char> vertex_collide_;                // GIA: on some body-colliding face
+  ClothUntangling untangle_;  // cloth/cloth GIA (when gia_ and self-collision)
   FeatureOwnership cloth_own_;
   AabbTree cloth_tree_;
   std::vector<Aabb> cloth_boxes_;
