@@ -20,14 +20,14 @@ from test_collisions import simulate
 R = 0.012  # fold radius: the flap lies 2R above the lower layer
 
 
-def folded_sheet(dip: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """A 0.3 x 0.2 m sheet (31 x 21, 1 cm) folded back over itself along the line x = 0.16
+def folded_sheet(dip: float, k: int = 1) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A 0.3 x 0.2 m sheet (31 x 21, 1 cm; k times finer with k > 1) folded back over itself along the line x = 0.16
     (a half cylinder of radius R); the flap returns 2R above the lower layer. Its outer part
     (from 4 cm along the flap to its free edge) bends down by up to `dip` at the middle of the
     free edge (cos^2 profile across, zero at the sides), so with dip > 2R the middle of the
     flap's tip is pushed through the lower layer. Returns (positions, faces, rest positions:
     the fold with a flat flap)."""
-    nx, nz = 31, 21
+    nx, nz = 30 * k + 1, 20 * k + 1
     flat, faces = grid_sheet(nx, nz, 0.3, 0.2, "xz")
     a = 0.16
     u, z = flat[:, 0], flat[:, 2]
@@ -47,10 +47,10 @@ def folded_sheet(dip: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return start, faces, rest
 
 
-def fold_shot(dip: float = 4 * R, gia: bool | None = None, frames: int = 12) -> dict:
-    start, faces, rest = folded_sheet(dip)
-    doc = sheet_shot("fold", 31, 21, 0.3, 0.2, plane="xz", frames=frames, substeps=4, gravity=(0.0, 0.0, 0.0),
-                     material={"damping": 0.02})
+def fold_shot(dip: float = 4 * R, gia: bool | None = None, frames: int = 12, k: int = 1) -> dict:
+    start, faces, rest = folded_sheet(dip, k)
+    doc = sheet_shot("fold", 30 * k + 1, 20 * k + 1, 0.3, 0.2, plane="xz", frames=frames, substeps=4,
+                     gravity=(0.0, 0.0, 0.0), material={"damping": 0.02})
     doc["cloth"][0]["mesh"] = inline_mesh(start, faces)
     doc["cloth"][0]["rest"] = {"kind": "positions", "positions": rest.tolist()}
     doc["features"] = {"self_collision": True}
@@ -114,6 +114,13 @@ def test_fold_pushed_through_its_own_layer_untangles():
     d = np.linalg.norm(x[tip][:, None, [0, 2]] - x[lower][None, :, [0, 2]], axis=2)
     below = x[lower][d.argmin(axis=1), 1]
     assert (x[tip, 1] > below).all(), x[tip, 1] - below
+
+
+def test_finer_fold_untangles():
+    """The same fold at 61 x 41 (5 mm): the tip is threaded back over a few frames."""
+    rows, _ = run(fold_shot(frames=7, k=2))
+    assert rows[0][0] > 0
+    assert_untangles(rows, within=4)
 
 
 def test_fold_stays_tangled_without_gia():

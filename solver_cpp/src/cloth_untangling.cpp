@@ -185,7 +185,13 @@ double ClothUntangling::analyse(const Positions& x, int threads) {
 int ClothUntangling::pull(const Positions& x, Positions& v, double h, const std::vector<double>& inverse_mass,
                           const std::vector<double>& vertex_thickness) const {
   int corrected = 0;
+  // Recoil per connected component of the crossed triangles: momentum given to coloured
+  // endpoints, taken back from the component's free (uncoloured, unpinned) vertices at the end.
+  std::vector<Vec3> recoil;
+  std::vector<int> recoil_component;
   for (const UntangleHit& hit : hits_) {
+    const double im = inverse_mass[hit.coloured];
+    if (!(im > 0.0)) continue;  // a pinned endpoint does not move
     std::array<int, 3> t = {cloth_faces_(hit.face, 0), cloth_faces_(hit.face, 1), cloth_faces_(hit.face, 2)};
     const Vec3 a = row3(x, t[0]), b = row3(x, t[1]), c = row3(x, t[2]);
     Vec3 n = (b - a).cross(c - a);
@@ -207,17 +213,29 @@ int ClothUntangling::pull(const Positions& x, Positions& v, double h, const std:
                                 vertex_thickness[t[2]]});
     const double target = (std::abs(d.dot(pc - a)) + th) / h;
     Vec3 v_rel = row3(v, hit.coloured);
-    double denominator = inverse_mass[hit.coloured];
-    for (int k = 0; k < 3; ++k) {
-      v_rel -= bary[k] * row3(v, t[k]);
-      denominator += bary[k] * bary[k] * inverse_mass[t[k]];
-    }
+    for (int k = 0; k < 3; ++k) v_rel -= bary[k] * row3(v, t[k]);
     const double vn = d.dot(v_rel);
-    if (vn >= target || !(denominator > 0.0)) continue;
-    const double impulse = (target - vn) / denominator;
-    v.row(hit.coloured) += (inverse_mass[hit.coloured] * impulse * d).transpose();
-    for (int k = 0; k < 3; ++k) v.row(t[k]) -= (bary[k] * inverse_mass[t[k]] * impulse * d).transpose();
+    if (vn >= target) continue;
+    const Vec3 impulse = ((target - vn) / im) * d;
+    v.row(hit.coloured) += (im * impulse).transpose();
+    const int comp = component_[t[0]];
+    const auto at = std::find(recoil_component.begin(), recoil_component.end(), comp);
+    if (at == recoil_component.end()) {
+      recoil_component.push_back(comp);
+      recoil.push_back(-impulse);
+    } else {
+      recoil[at - recoil_component.begin()] -= impulse;
+    }
     ++corrected;
+  }
+  for (size_t k = 0; k < recoil_component.size(); ++k) {
+    double mass = 0.0;
+    for (int i = 0; i < vertex_count_; ++i)
+      if (component_[i] == recoil_component[k] && !colour_[i] && inverse_mass[i] > 0.0) mass += 1.0 / inverse_mass[i];
+    if (!(mass > 0.0)) continue;  // all pinned: the pins take the recoil
+    const Vec3 dv = recoil[k] / mass;
+    for (int i = 0; i < vertex_count_; ++i)
+      if (component_[i] == recoil_component[k] && !colour_[i] && inverse_mass[i] > 0.0) v.row(i) += dv.transpose();
   }
   return corrected;
 }
