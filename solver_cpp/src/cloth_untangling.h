@@ -1,11 +1,11 @@
 // Cloth/cloth untangling in the step (Baraff, Witkin & Kass 2003, "Untangling Cloth"; issue 6):
 // at the start of a step's collision stage, the self-colliding cloth faces (all pieces, which
 // share one mesh, so this covers cloth/cloth between pieces too) are analysed with
-// analyse_self_intersections. Its per-path colouring marks the regions in intersection; the
-// collision stage then
-//   - skips cloth/cloth feature pairs whose two sides are both tangled (a one-way membrane:
-//     see tangled_vertex / tangled_face), so coloured regions may pass back while cloth away
-//     from the intersection still cannot enter;
+// analyse_self_intersections. A per-path, per-component colouring marks the regions in
+// intersection; the collision stage then
+//   - skips cloth/cloth triangle pairs across an intersection (a one-way membrane, see
+//     skip_triangle_pair), so coloured regions may pass back while cloth away from the
+//     intersection still cannot enter;
 //   - pulls each crossing edge back through the triangle it crosses (pull): the edge's
 //     coloured endpoint gets a velocity, relative to the triangle, that takes it across the
 //     triangle's plane to its uncoloured endpoint's side (plus the thickness) within the step.
@@ -40,11 +40,13 @@ class ClothUntangling {
   double analyse(const Positions& x, int threads);
 
   // Velocity corrections for every hit, serially in hit order (each relative to the velocities
-  // left by the ones before): the coloured endpoint and the crossed triangle get opposite
-  // impulses along the triangle's normal (momentum-conserving, weighted by inverse mass and the
-  // barycentric weights of the crossing point), so that the endpoint's velocity relative to the
-  // triangle carries it to the free endpoint's side of the plane, thickness beyond, within h.
-  // A pair already moving that fast is left alone. Returns the number of hits corrected.
+  // left by the ones before): the coloured endpoint gets a velocity change along the crossed
+  // triangle's normal so that its velocity relative to the crossing point on the triangle
+  // carries it to the free endpoint's side of the plane, thickness beyond, within h. A pair
+  // already moving that fast is left alone. The recoil (opposite momentum) is spread over the
+  // free, unpinned vertices of the triangle's connected component by mass, after all hits, so
+  // momentum is conserved and no single triangle is kicked through its neighbours. Returns the
+  // number of hits corrected.
   int pull(const Positions& x, Positions& v, double h, const std::vector<double>& inverse_mass,
            const std::vector<double>& vertex_thickness) const;
 
