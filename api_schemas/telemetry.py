@@ -42,6 +42,8 @@ TELEMETRY_COLUMNS: list[tuple[str, str, str]] = [
     ("gia_body_coloured_faces", "i4", "body faces in intersection with the cloth at a substep's start, most over the frame (GIA)"),
     ("gia_pinched_body_pairs", "i4",
      "body pairs pinched, becoming pinched or becoming unpinched over a substep, most over the frame (GIA)"),
+    ("gia_self_coloured_vertices", "i4", "cloth vertices coloured by cloth/cloth GIA at a substep's start, most over the frame"),
+    ("gia_self_paths", "i4", "cloth/cloth intersection paths at a substep's start, most over the frame (GIA)"),
 ]
 
 
@@ -76,6 +78,8 @@ class FrameTelemetry(BaseModel):
     gia_paths: int = 0
     gia_body_coloured_faces: int = 0
     gia_pinched_body_pairs: int = 0
+    gia_self_coloured_vertices: int = 0
+    gia_self_paths: int = 0
 
 
 assert list(FrameTelemetry.model_fields) == [c[0] for c in TELEMETRY_COLUMNS]

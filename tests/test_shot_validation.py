@@ -243,4 +243,4 @@ def test_cli_reports_bad_shot_without_traceback(tmp_path, command) -> None:
 def test_unavailable_feature_is_refused_not_ignored(tmp_path) -> None:
     doc = base_doc()
     doc["features"] = {"gia": True}
-    expect(doc, tmp_path, "features.gia", "not available")
+    expect(doc, tmp_path, "features.gia", "self-collision")

@@ -283,13 +283,27 @@ def asset_paths(shot: Shot) -> set[str]:
     return paths
 
 
+def piece_self_collide(shot: Shot) -> list[bool]:
+    """Per cloth piece: whether its faces take part in cloth/cloth collisions (see
+    `collision_switches`)."""
+    features = shot.features
+    has_bodies = len(shot.bodies) > 0
+    self_default = (
+        features.self_collision if features.self_collision is not None else (has_bodies or len(shot.cloth) > 1)
+    )
+    return [
+        bool((p.self_collide if p.self_collide is not None else self_default) and features.self_collision is not False)
+        for p in shot.cloth
+    ]
+
+
 def check_features(shot: Shot) -> None:
     """Refuse physics a shot asks for that this build does not provide (never ignore it)."""
-    if shot.features.gia and not any(b.collide for b in shot.bodies):
+    if shot.features.gia and not any(b.collide for b in shot.bodies) and not any(piece_self_collide(shot)):
         raise ShotError(
             "features.gia",
-            "global intersection analysis works against closed collidable bodies only in this version of weft "
-            "(cloth/cloth untangling is not available)",
+            "global intersection analysis needs a collidable body or self-collision (features.self_collision); "
+            "this shot has neither, so there is nothing to analyse",
         )
 
 
@@ -481,35 +495,32 @@ def collision_switches(scene: Scene) -> dict[str, Any]:
       for a single free piece such as a flag, which then pays nothing for it. Cloth/cloth pairs
       are tested between faces that both have self-collision on, also across pieces.
     - CCD (``features.ccd``): on whenever any collision is on.
-    - GIA (``features.gia``): recovery of cloth inside closed bodies, and body/body pinch states
-      (CCD off for cloth caught where two collidable bodies intersect each other). None means
-      on when two collidable bodies intersect each other at some animation frame (decided here,
+    - GIA (``features.gia``): recovery of cloth inside or through closed bodies, body/body
+      pinch states (CCD off for cloth caught where two collidable bodies intersect each other)
+      and cloth/cloth untangling (with self-collision). None means on when two collidable bodies
+      intersect each other at some animation frame (decided here,
       ``bodies_intersect_each_other``: exact test per frame, bounding boxes first) or, failing
-      that, when some cloth vertex starts inside a closed collidable body (decided by the
-      solver at setup: ``gia`` stays -1 here).
+      that, when the cloth starts in intersection: some cloth vertex or triangle through a
+      closed collidable body, or the self-colliding cloth self-intersecting (decided by the
+      solver at setup, exact tests: ``gia`` stays -1 here). Off when there is neither a
+      collidable body nor self-collision.
     A switch set to false at the scene level turns the feature off for every piece.
     """
     shot = scene.shot
     features = shot.features
     has_bodies = len(shot.bodies) > 0
     body_default = features.collisions if features.collisions is not None else has_bodies
-    self_default = (
-        features.self_collision if features.self_collision is not None else (has_bodies or len(shot.cloth) > 1)
-    )
     piece_collide = [
         bool(body_default and (p.collide if p.collide is not None else True) and features.collisions is not False)
         for p in shot.cloth
     ]
-    piece_self = [
-        bool((p.self_collide if p.self_collide is not None else self_default) and features.self_collision is not False)
-        for p in shot.cloth
-    ]
+    piece_self = piece_self_collide(shot)
     body_collide = [bool(b.collide) for b in shot.bodies]
     any_body = any(piece_collide) and any(body_collide)
     enabled = any_body or any(piece_self)
     ccd = enabled and (features.ccd if features.ccd is not None else True)
-    gia = (-1 if features.gia is None else int(bool(features.gia))) if any_body else 0
-    if gia == -1 and bodies_intersect_each_other(scene, body_collide):
+    gia = (-1 if features.gia is None else int(bool(features.gia))) if (any_body or any(piece_self)) else 0
+    if gia == -1 and any_body and bodies_intersect_each_other(scene, body_collide):
         gia = 1
     return {
         "enabled": enabled,

@@ -138,7 +138,10 @@ void bind_collision(py::module_& m) {
       .def_property_readonly("gia_pinched_body_pairs",
                              [](const FrameTelemetry& t) { return t.collision.gia_pinched_body_pairs; })
       .def_property_readonly("gia_gripped_vertices",  // diagnostic, not a cache column
-                             [](const FrameTelemetry& t) { return t.collision.gia_gripped_vertices; });
+                             [](const FrameTelemetry& t) { return t.collision.gia_gripped_vertices; })
+      .def_property_readonly("gia_self_coloured_vertices",
+                             [](const FrameTelemetry& t) { return t.collision.gia_self_coloured_vertices; })
+      .def_property_readonly("gia_self_paths", [](const FrameTelemetry& t) { return t.collision.gia_self_paths; });
 
   auto simulation = py::reinterpret_borrow<py::class_<Simulation>>(m.attr("Simulation"));
   simulation.def_property_readonly("collisions_enabled", [](const Simulation& s) { return s.collision_system() != nullptr; })

@@ -64,6 +64,8 @@ void CollisionTelemetry::add(const CollisionTelemetry& o) {
   gia_body_coloured_faces = std::max(gia_body_coloured_faces, o.gia_body_coloured_faces);
   gia_pinched_body_pairs = std::max(gia_pinched_body_pairs, o.gia_pinched_body_pairs);
   gia_gripped_vertices += o.gia_gripped_vertices;
+  gia_self_coloured_vertices = std::max(gia_self_coloured_vertices, o.gia_self_coloured_vertices);
+  gia_self_paths = std::max(gia_self_paths, o.gia_self_paths);
   proximity_pairs += o.proximity_pairs;
   ccd_candidates += o.ccd_candidates;
   ccd_hits += o.ccd_hits;
@@ -146,7 +148,10 @@ CollisionSystem::CollisionSystem(const Faces& cloth_faces, const Positions& x, c
       gia_ = std::any_of(inside.begin(), inside.end(), [](std::int8_t c) { return c != 0; }) ||
              weft::count_intersections(x, cloth_faces_, bodies[b].frame_start(), bodies_[b].faces, face_collide_) > 0;
     }
+    // ... or when the self-colliding cloth starts self-intersecting (exact count).
+    if (!gia_ && any_self_) gia_ = count_self_intersections(x, cloth_faces_, face_self_) > 0;
   }
+  if (gia_ && any_self_) untangle_ = ClothUntangling(cloth_faces_, face_self_, vertex_count_);
   if (gia_) {
     cloth_neighbours_.assign(vertex_count_, {});
     vertex_collide_.assign(vertex_count_, 0);
@@ -284,6 +289,15 @@ void CollisionSystem::gia_colour(const Positions& x) {
   frame_.gia_coloured_vertices = std::max(frame_.gia_coloured_vertices, coloured_count);
   frame_.gia_paths = std::max(frame_.gia_paths, paths);
   frame_.gia_body_coloured_faces = std::max(frame_.gia_body_coloured_faces, body_faces);
+  frame_.gia_seconds += since(start);
+}
+
+void CollisionSystem::gia_untangle() {
+  const auto start = Clock::now();
+  untangle_.analyse(*x_, threads_);
+  frame_.gia_self_coloured_vertices = std::max(frame_.gia_self_coloured_vertices, untangle_.coloured_count());
+  frame_.gia_self_paths = std::max(frame_.gia_self_paths, untangle_.path_count());
+  if (untangle_.pull(*x_, *v_, h_, inverse_mass_, vertex_thickness_) > 0) x_end_ = *x_ + h_ * *v_;
   frame_.gia_seconds += since(start);
 }
 
@@ -429,6 +443,9 @@ double CollisionSystem::pair_friction(const FeaturePair& pair) const {
 
 void CollisionSystem::expand_triangle_pair(int cf, int of, int body, std::vector<FeaturePair>& out) const {
   if (body < 0) {
+    // Cloth/cloth GIA one-way membrane (cloth_untangling.h): triangle pairs across an
+    // intersection are skipped, so regions in intersection can pass back; clean cloth cannot enter.
+    if (untangle_.skip_triangle_pair(cf, of)) return;
     for (int v : cloth_own_.face_vertices[cf])
       if (!face_has(cloth_faces_, of, v))
         out.push_back({{v, cloth_faces_(of, 0), cloth_faces_(of, 1), cloth_faces_(of, 2)}, -1, false});
@@ -864,6 +881,7 @@ void CollisionSystem::respond(const Positions& x, Positions& v, double h, const 
   if (gia_) {
     gia_colour(x);
     gia_recover();
+    if (any_self_) gia_untangle();
   }
   collect_pairs();
   proximity_pass();

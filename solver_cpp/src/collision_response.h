@@ -22,6 +22,7 @@
 #include "bodies.h"
 #include "body_pinch.h"
 #include "broad_phase.h"
+#include "cloth_untangling.h"
 #include "pcg.h"
 #include "proximity.h"
 
@@ -42,8 +43,10 @@ struct CollisionSettings {
   // default: the simple release rule (a vertex leaving faster than its push-out is not
   // constrained) made resting contact jitter in the box drop (docs/collisions.md).
   bool contact_constraints = false;
-  // Global intersection analysis against closed bodies (docs/intersection-analysis.md):
-  // 0 off, 1 on, -1 on when some cloth vertex starts inside a closed collidable body.
+  // Global intersection analysis (docs/intersection-analysis.md): against closed bodies and,
+  // with self-collision, cloth/cloth untangling (cloth_untangling.h). 0 off, 1 on, -1 on when
+  // some cloth vertex starts inside a closed collidable body or the self-colliding cloth
+  // starts self-intersecting.
   int gia = 0;
   // Body/body pinch states (body_pinch.h) when GIA is on and two or more bodies collide: CCD off
   // for cloth where two bodies intersect each other. Off only to compare (tests, diagnosis).
@@ -70,6 +73,8 @@ struct CollisionTelemetry {
   int gia_body_coloured_faces = 0;  // body faces in intersection with the cloth, most over the frame
   int gia_pinched_body_pairs = 0;  // body pairs not free over a substep (body_pinch.h), most over the substeps
   int gia_gripped_vertices = 0;    // cloth vertices moved with a body in a pinch, summed over substeps (not a column)
+  int gia_self_coloured_vertices = 0;  // cloth/cloth GIA: coloured vertices, most over the substeps
+  int gia_self_paths = 0;              // cloth/cloth GIA: intersection paths, most over the substeps
   double total_seconds() const {
     return broad_phase_seconds + proximity_seconds + ccd_seconds + response_seconds + intersection_seconds;
   }
@@ -142,6 +147,8 @@ class CollisionSystem {
   bool pinched_vertex(int p, int body) const {
     return !pinch_held_.empty() && !pinch_held_[body].empty() && pinch_held_[body][p];
   }
+  // Cloth/cloth GIA at the start of a step: analyse, then pull crossing edges back through.
+  void gia_untangle();
   bool coloured(int p, int body) const {
     return p >= 0 && gia_ && !bodies_[body].inside.empty() && bodies_[body].inside[p];
   }
@@ -185,6 +192,7 @@ class CollisionSystem {
   std::vector<char> vertex_collide_;                // GIA: on some body-colliding face
   Faces collide_faces_;                             // GIA: the cloth faces that collide with bodies
   std::vector<int> collide_face_ids_;               // their ids among all cloth faces
+  ClothUntangling untangle_;  // cloth/cloth GIA (when gia_ and self-collision)
   FeatureOwnership cloth_own_;
   AabbTree cloth_tree_;
   std::vector<Aabb> cloth_boxes_;
