@@ -63,7 +63,7 @@ def scaling_benchmark(sizes: list[int], frames: int, threads: int) -> list[dict[
 def hard_cases() -> dict[str, Callable[[Path], dict[str, Any]]]:
     """The issue's hard cases, each a function of a scratch directory returning a shot."""
     from weft.collision_scenes import box_pinch_shot, sleeve_shot
-    from weft.gia_scenes import bone_shot, through_shot
+    from weft.gia_scenes import bone_shot, fold_shot, through_shot, two_sheets_shot
 
     return {
         "bone: patch 7 mm in (21x21)": lambda d: bone_shot(n=21, frames=13),
@@ -72,6 +72,9 @@ def hard_cases() -> dict[str, Callable[[Path], dict[str, Any]]]:
         "sleeve on a fast limb, GIA on": lambda d: {**sleeve_shot(d, frames=13), "features": {"gia": True}},
         "sleeve on a fast limb, GIA off": lambda d: {**sleeve_shot(d, frames=13), "features": {"gia": False}},
         "cloth pinched between two boxes (16x16)": lambda d: box_pinch_shot(d),
+        "fold pushed through its own layer (31x21)": lambda d: fold_shot(frames=13),
+        "fold pushed through its own layer (61x41)": lambda d: fold_shot(frames=13, k=2),
+        "small sheet partly through a larger one": lambda d: two_sheets_shot(frames=13),
     }
 
 

@@ -1,5 +1,7 @@
 """Hard GIA scenes built with code (docs/intersection-analysis.md): a sheet over a thin "bone"
-with a patch pushed into it or wholly through it. Used by the GIA tests and `weft bench gia`."""
+with a patch pushed into it or wholly through it; a sheet folded over itself with the flap pushed
+through its own lower layer; a small sheet pushed partly through a larger one. Used by the GIA
+tests and `weft bench gia`."""
 
 from __future__ import annotations
 
@@ -53,6 +55,74 @@ def through_shot(height: float = 0.02, depth: float = -0.02, frames: int = 12, g
     doc["cloth"][0]["rest"] = {"kind": "positions", "positions": rest.tolist()}
     tube_v, tube_f = tube_mesh(RADIUS, 0.5, sections=16, segments=20)
     doc["bodies"] = [{"name": "bone", "mesh": inline_mesh(tube_v, tube_f)}]
+    if gia is not None:
+        doc["features"] = {"gia": gia}
+    return doc
+
+
+R = 0.012  # fold radius: the flap lies 2R above the lower layer
+
+
+def folded_sheet(dip: float, k: int = 1) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A 0.3 x 0.2 m sheet (31 x 21, 1 cm; k times finer with k > 1) folded back over itself along the line x = 0.16
+    (a half cylinder of radius R); the flap returns 2R above the lower layer. Its outer part
+    (from 4 cm along the flap to its free edge) bends down by up to `dip` at the middle of the
+    free edge (cos^2 profile across, zero at the sides), so with dip > 2R the middle of the
+    flap's tip is pushed through the lower layer. Returns (positions, faces, rest positions:
+    the fold with a flat flap)."""
+    nx, nz = 30 * k + 1, 20 * k + 1
+    flat, faces = grid_sheet(nx, nz, 0.3, 0.2, "xz")
+    a = 0.16
+    u, z = flat[:, 0], flat[:, 2]
+    x, y = u.copy(), np.zeros_like(u)
+    bend = (u > a) & (u <= a + np.pi * R)
+    theta = (u[bend] - a) / R
+    x[bend], y[bend] = a + R * np.sin(theta), R * (1 - np.cos(theta))
+    flap = u > a + np.pi * R
+    s = u - a - np.pi * R
+    x[flap], y[flap] = a - s[flap], 2 * R
+    rest = np.stack([x, y, z], axis=1)
+    s0, s_max = 0.04, s.max()
+    ramp = np.clip((s - s0) / (s_max - s0), 0.0, None) * flap
+    profile = np.cos(np.pi * (z - 0.1) / 0.2) ** 2
+    start = rest.copy()
+    start[:, 1] -= dip * ramp * profile
+    return start, faces, rest
+
+
+def fold_shot(dip: float = 4 * R, gia: bool | None = None, frames: int = 12, k: int = 1) -> dict:
+    start, faces, rest = folded_sheet(dip, k)
+    doc = sheet_shot("fold", 30 * k + 1, 20 * k + 1, 0.3, 0.2, plane="xz", frames=frames, substeps=4,
+                     gravity=(0.0, 0.0, 0.0), material={"damping": 0.02})
+    doc["cloth"][0]["mesh"] = inline_mesh(start, faces)
+    doc["cloth"][0]["rest"] = {"kind": "positions", "positions": rest.tolist()}
+    doc["features"] = {"self_collision": True}
+    if gia is not None:
+        doc["features"]["gia"] = gia
+    return doc
+
+
+def two_sheets_shot(pushed: bool = True, gia: bool | None = None, frames: int = 12, gravity: float = 0.0) -> dict:
+    """A 0.3 m sheet A (16 x 16) at y = 0 and above it a 10 x 14 cm sheet B (11 x 15) at
+    y = 1 cm, offset off A's grid lines; with `pushed`, B's end beyond x = 2 cm bends down
+    linearly to -1 cm at its edge, i.e. partly through A (B's sides stay inside A). Rest
+    shapes are flat."""
+    a_v, a_f = grid_sheet(16, 16, 0.3, 0.3, "xz", origin=(-0.15, 0.0, -0.15))
+    b_rest, b_f = grid_sheet(11, 15, 0.1, 0.14, "xz", origin=(-0.0463, 0.01, -0.0659))
+    b_v = b_rest.copy()
+    if pushed:
+        b_v[:, 1] -= 0.02 * np.clip((b_v[:, 0] - 0.02) / (b_v[:, 0].max() - 0.02), 0.0, None)
+    doc = sheet_shot("two", 16, 16, 0.3, 0.3, plane="xz", frames=frames, substeps=4, gravity=(0.0, -gravity, 0.0),
+                     material={"damping": 0.02})
+    corners = [0, 15, 240, 255]
+    doc["cloth"][0]["mesh"] = inline_mesh(a_v, a_f)
+    doc["cloth"][0]["pins"] = [{"vertices": corners}]
+    doc["cloth"].append({
+        "name": "b",
+        "mesh": inline_mesh(b_v, b_f),
+        "rest": {"kind": "positions", "positions": b_rest.tolist()},
+        "material": {"damping": 0.02},
+    })
     if gia is not None:
         doc["features"] = {"gia": gia}
     return doc
