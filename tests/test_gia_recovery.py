@@ -109,9 +109,14 @@ def test_gia_telemetry_is_in_the_cache(tmp_path):
     with open_cache_reader(tmp_path / "bone.h5") as f:
         telemetry = f["telemetry"][()]
     names = telemetry.dtype.names
-    assert {"gia_seconds", "gia_coloured_vertices", "gia_pushed_vertices", "intersections"} <= set(names)
+    assert {"gia_seconds", "gia_coloured_vertices", "gia_pushed_vertices", "gia_paths", "gia_body_coloured_faces",
+            "intersections"} <= set(names)
     assert telemetry["gia_coloured_vertices"][1] > 0  # the patch was coloured in frame 1
-    assert telemetry["gia_seconds"][1:].min() > 0.0
+    assert telemetry["gia_paths"][1] > 0 and telemetry["gia_body_coloured_faces"][1] > 0
+    assert telemetry["gia_seconds"][1] > 0.0
+    # Once a frame ends clean with every collision resolved, the analysis is not rerun.
+    assert telemetry["intersections"][-2] == 0 and telemetry["unresolved_collisions"][-2] == 0
+    assert telemetry["gia_seconds"][-1] == 0.0
     assert (telemetry["intersections"][1:] >= 0).all()
 
 

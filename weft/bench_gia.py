@@ -35,6 +35,7 @@ def run_shot(doc: dict[str, Any], base_dir: Path | None, threads: int) -> dict[s
         "vertices": int(sum(p.vertex_count for p in scene.pieces)),
         "frames": len(gia),
         "substeps": substeps,
+        "gia_seconds_first_frame": float(gia[0]),
         "gia_seconds_per_frame": float(np.mean(gia)),
         "gia_seconds_per_step": float(np.mean(gia)) / substeps,
         "total_seconds_per_frame": float(np.mean(total)),

@@ -51,6 +51,12 @@ class ClothUntangling {
            const std::vector<double>& vertex_thickness) const;
 
   bool any() const { return !hits_.empty() || coloured_count_ > 0; }
+  // Forget the last analysis (a step that skips it: nothing tangled, nothing skipped or pulled).
+  void clear() {
+    hits_.clear();
+    coloured_count_ = 0;
+    path_count_ = 0;
+  }
   // Membrane flags: a vertex is tangled when coloured or on a contour face (a face crossed by a
   // path); a face when one of its vertices is tangled.
   bool tangled_vertex(int v) const { return any() && tangled_vertex_[v]; }

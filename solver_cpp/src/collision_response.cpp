@@ -250,7 +250,17 @@ void CollisionSystem::pinch_update() {
   frame_.gia_seconds += since(start);
 }
 
-void CollisionSystem::gia_colour(const Positions& x) {
+void CollisionSystem::gia_clear() {
+  for (BodyState& state : bodies_) {
+    state.inside.clear();
+    state.face_coloured.clear();
+    state.vertex_coloured.clear();
+    state.cloth_face_contour.clear();
+  }
+  untangle_.clear();
+}
+
+bool CollisionSystem::gia_colour(const Positions& x) {
   const auto start = Clock::now();
   int coloured_count = 0, paths = 0, body_faces = 0;
   GiaOptions options;
@@ -290,6 +300,7 @@ void CollisionSystem::gia_colour(const Positions& x) {
   frame_.gia_paths = std::max(frame_.gia_paths, paths);
   frame_.gia_body_coloured_faces = std::max(frame_.gia_body_coloured_faces, body_faces);
   frame_.gia_seconds += since(start);
+  return paths > 0 || coloured_count > 0;
 }
 
 void CollisionSystem::gia_untangle() {
@@ -878,10 +889,17 @@ void CollisionSystem::respond(const Positions& x, Positions& v, double h, const 
   changed_.assign(vertex_count_, 0);
   contact_friction();
   if (pinch_) pinch_update();
-  if (gia_) {
-    gia_colour(x);
+  const int unresolved_before = frame_.unresolved;
+  bool tangled = false;
+  if (gia_ && gia_due_) {
+    tangled = gia_colour(x);
     gia_recover();
-    if (any_self_) gia_untangle();
+    if (any_self_) {
+      gia_untangle();
+      tangled = tangled || untangle_.any();
+    }
+  } else if (gia_) {
+    gia_clear();
   }
   collect_pairs();
   proximity_pass();
@@ -898,6 +916,8 @@ void CollisionSystem::respond(const Positions& x, Positions& v, double h, const 
       if (!hits.empty()) impact_zones(hits);
     }
   }
+  const bool ccd_skipped = !settings_.ccd || std::any_of(pairs_.begin(), pairs_.end(), [](const FeaturePair& p) { return !p.ccd; });
+  gia_due_ = tangled || ccd_skipped || frame_.unresolved > unresolved_before || (pinch_ && pinch_->active_pairs() > 0);
   x_ = nullptr;
   v_ = nullptr;
 }
@@ -914,6 +934,7 @@ CollisionTelemetry CollisionSystem::end_frame(const Positions& x, const std::vec
   if (settings_.count_intersections) {
     const auto start = Clock::now();
     frame_.intersections = count_intersections(x, bodies);
+    if (frame_.intersections > 0) gia_due_ = true;
     frame_.intersection_seconds += since(start);
   }
   return frame_;

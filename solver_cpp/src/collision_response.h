@@ -138,7 +138,9 @@ class CollisionSystem {
   };
   // GIA at the start of a step: colour cloth vertices inside closed bodies (their feature
   // pairs with that body are skipped: a one-way membrane) and push contour vertices out.
-  void gia_colour(const Positions& x);
+  // Returns whether the cloth is in intersection with some closed body (paths or vertices inside).
+  bool gia_colour(const Positions& x);
+  void gia_clear();
   void gia_recover();
   // Body/body pinch states for this step (body_pinch.h) and the cloth faces in a non-free
   // pair's region, per body: their pairs with that body get no CCD.
@@ -203,6 +205,12 @@ class CollisionSystem {
   std::vector<std::vector<char>> pinch_held_;   // per body, per cloth vertex: in a pinch region (empty: none)
   std::vector<std::vector<char>> pinch_gripped_;  // per body, per cloth vertex: inside it and gripped by a pinch
   double default_thickness_ = 0.002;
+  // GIA runs in a step only when the state may be in intersection: at the first step, after a
+  // step whose analysis found something, whose collision stage left pairs unresolved or ran
+  // without CCD for some pairs (a pinch), or after a frame whose exact count was not zero. A
+  // step that starts intersection-free and ends with every pair resolved by CCD cannot create
+  // an intersection, so the next analysis would find nothing.
+  bool gia_due_ = true;
 
   // Per respond() call.
   const Positions* x_ = nullptr;
