@@ -4,6 +4,7 @@
 #include <cmath>
 #include <numeric>
 
+#include "gia_regions.h"
 #include "intersection_analysis.h"
 #include "proximity.h"
 
@@ -28,25 +29,15 @@ ClothUntangling::ClothUntangling(const Faces& cloth_faces, const std::vector<cha
     if (!face_self.empty() && face_self[f]) face_id_.push_back(f);
   faces_.resize(static_cast<Eigen::Index>(face_id_.size()), 3);
   for (size_t k = 0; k < face_id_.size(); ++k) faces_.row(static_cast<Eigen::Index>(k)) = cloth_faces.row(face_id_[k]);
-  const GiaTopology topo = build_gia_topology(vertex_count_, faces_);
-  for (int e = 0; e < topo.edges.rows(); ++e) {
-    edge_a_.push_back(topo.edges(e, 0));
-    edge_b_.push_back(topo.edges(e, 1));
-  }
-  vertex_offset_ = topo.vertex_offset;
-  vertex_neighbour_ = topo.vertex_neighbour;
-  vertex_edge_ = topo.vertex_edge;
+  topo_ = build_gia_topology(vertex_count_, faces_);
   component_.resize(vertex_count_);
   std::iota(component_.begin(), component_.end(), 0);
-  for (size_t e = 0; e < edge_a_.size(); ++e) unite(component_, edge_a_[e], edge_b_[e]);
+  for (int e = 0; e < topo_.edges.rows(); ++e) unite(component_, topo_.edges(e, 0), topo_.edges(e, 1));
   for (int v = 0; v < vertex_count_; ++v) component_[v] = find_root(component_, v);
   colour_.assign(vertex_count_, 0);
   tangled_vertex_.assign(vertex_count_, 0);
   tangled_face_.assign(face_count, 0);
   patch_.assign(vertex_count_, -1);
-  wall_stamp_.assign(edge_a_.size(), -1);
-  fill_stamp_.assign(vertex_count_, -1);
-  fill_region_.assign(vertex_count_, -1);
 }
 
 // BWK's per-path colouring, per connected component: for each path, the edges it crosses an odd
@@ -57,60 +48,26 @@ ClothUntangling::ClothUntangling(const Faces& cloth_faces, const std::vector<cha
 // a small sheet pushed partly through a large one must colour its pushed part, not all of it
 // (the whole-mesh rule of GiaMeshColouring::vertex_colour keeps only the large sheet).
 void ClothUntangling::colour(const GiaResult& r, const Positions& x) {
-  area_.assign(vertex_count_, 0.0);
-  for (int k = 0; k < faces_.rows(); ++k) {
-    const Vec3 a = row3(x, faces_(k, 0)), b = row3(x, faces_(k, 1)), c = row3(x, faces_(k, 2));
-    const double third = (b - a).cross(c - a).norm() / 6.0;
-    for (int j = 0; j < 3; ++j) area_[faces_(k, j)] += third;
-  }
-  std::fill(wall_stamp_.begin(), wall_stamp_.end(), -1);
-  std::fill(fill_stamp_.begin(), fill_stamp_.end(), -1);
-  std::vector<int> crossed, seeds, region_seed;
+  const std::vector<double> area = lumped_vertex_area(x, faces_);
+  FloodFill fill(topo_, area);
+  std::vector<int> seeds, region_seed;
   std::vector<double> region_area;
   for (int p = 0; p < static_cast<int>(r.paths.size()); ++p) {
     const GiaPath& path = r.paths[p];
-    crossed.clear();
-    for (int h : path.hits) crossed.push_back(r.hits[h].edge);
-    std::sort(crossed.begin(), crossed.end());
     seeds.clear();
-    for (size_t i = 0; i < crossed.size();) {
-      size_t j = i;
-      while (j < crossed.size() && crossed[j] == crossed[i]) ++j;
-      if ((j - i) % 2 == 1) {
-        wall_stamp_[crossed[i]] = p;
-        seeds.push_back(edge_a_[crossed[i]]);
-        seeds.push_back(edge_b_[crossed[i]]);
-      }
-      i = j;
+    for (int e : odd_crossed_edges(r, path.hits, 0)) {
+      fill.wall_stamp[e] = p;
+      seeds.push_back(topo_.edges(e, 0));
+      seeds.push_back(topo_.edges(e, 1));
     }
     if (seeds.empty()) continue;
     for (int v : path.vertices) {
-      fill_stamp_[v] = p;
-      fill_region_[v] = -1;
-      for (int k = vertex_offset_[v]; k < vertex_offset_[v + 1]; ++k) seeds.push_back(vertex_neighbour_[k]);
+      fill.block(v, p);
+      for (int k = topo_.vertex_offset[v]; k < topo_.vertex_offset[v + 1]; ++k) seeds.push_back(topo_.vertex_neighbour[k]);
     }
     region_area.clear();
     region_seed.clear();
-    for (int seed : seeds) {
-      if (fill_stamp_[seed] == p) continue;
-      const int id = static_cast<int>(region_area.size());
-      region_area.push_back(0.0);
-      region_seed.push_back(seed);
-      queue_.assign(1, seed);
-      fill_stamp_[seed] = p;
-      fill_region_[seed] = id;
-      for (size_t q = 0; q < queue_.size(); ++q) {
-        const int v = queue_[q];
-        region_area[id] += area_[v];
-        for (int k = vertex_offset_[v]; k < vertex_offset_[v + 1]; ++k) {
-          const int w = vertex_neighbour_[k];
-          if (fill_stamp_[w] == p || wall_stamp_[vertex_edge_[k]] == p) continue;
-          fill_stamp_[w] = p;
-          fill_region_[w] = id;
-          queue_.push_back(w);
-        }
-      }
-    }
+    fill.fill(seeds, p, region_area, region_seed);
     // Per component: the region kept uncoloured.
     const int regions = static_cast<int>(region_area.size());
     std::vector<int> keep(regions, 0);
@@ -125,7 +82,7 @@ void ClothUntangling::colour(const GiaResult& r, const Positions& x) {
       keep[i] = best == i;
     }
     for (int v = 0; v < vertex_count_; ++v)
-      if (fill_stamp_[v] == p && fill_region_[v] >= 0 && !keep[fill_region_[v]]) colour_[v] = 1;
+      if (fill.region_stamp[v] == p && fill.region[v] >= 0 && !keep[fill.region[v]]) colour_[v] = 1;
   }
 }
 
@@ -156,8 +113,8 @@ double ClothUntangling::analyse(const Positions& x, int threads) {
   // Contour faces: pierced by a hit or with a crossing edge.
   for (const GiaHit& h : r.hits) {
     for (int c = 0; c < 3; ++c) tangled_vertex_[faces_(h.tri, c)] = 1;
-    tangled_vertex_[edge_a_[h.edge]] = 1;
-    tangled_vertex_[edge_b_[h.edge]] = 1;
+    tangled_vertex_[topo_.edges(h.edge, 0)] = 1;
+    tangled_vertex_[topo_.edges(h.edge, 1)] = 1;
   }
   // Tangled faces and their patches (connected through shared vertices), labelled by the
   // patch's lowest vertex.
@@ -175,7 +132,7 @@ double ClothUntangling::analyse(const Positions& x, int threads) {
       for (int c = 0; c < 3; ++c) in_patch[cloth_faces_(f, c)] = 1;
   for (int v = 0; v < vertex_count_; ++v) patch_[v] = in_patch[v] ? find_root(patch_, v) : -1;
   for (const GiaHit& h : r.hits) {
-    const int a = edge_a_[h.edge], b = edge_b_[h.edge];
+    const int a = topo_.edges(h.edge, 0), b = topo_.edges(h.edge, 1);
     if (colour_[a] == colour_[b]) continue;  // no coloured side to pull back (e.g. a slit's edges)
     hits_.push_back({colour_[a] ? a : b, colour_[a] ? b : a, face_id_[h.tri]});
   }

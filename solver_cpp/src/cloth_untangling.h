@@ -16,11 +16,10 @@
 #include <array>
 #include <vector>
 
+#include "intersection_analysis.h"
 #include "types.h"
 
 namespace weft {
-
-struct GiaResult;
 
 // One crossing to undo: edge (coloured, free) crosses cloth face `face`.
 struct UntangleHit {
@@ -84,12 +83,10 @@ class ClothUntangling {
   int vertex_count_ = 0;
   // Topology of faces_ (the analysis numbers edges the same way), and connected component of
   // each vertex (cloth pieces are components of the one mesh).
-  std::vector<int> edge_a_, edge_b_, vertex_offset_, vertex_neighbour_, vertex_edge_, component_;
+  GiaTopology topo_;
+  std::vector<int> component_;
   std::vector<char> colour_, tangled_vertex_, tangled_face_;
   std::vector<int> patch_;  // tangled patch of each vertex of a tangled face (its lowest vertex id), else -1
-  // Scratch for the flood fill.
-  std::vector<int> wall_stamp_, fill_stamp_, fill_region_, queue_;
-  std::vector<double> area_;
   void colour(const GiaResult& r, const Positions& x);
   std::vector<UntangleHit> hits_;
   int coloured_count_ = 0, path_count_ = 0;

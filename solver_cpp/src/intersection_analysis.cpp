@@ -10,6 +10,7 @@
 #include <omp.h>
 
 #include "exact_predicates.h"
+#include "gia_regions.h"
 #include "mesh.h"
 
 namespace weft {
@@ -308,75 +309,7 @@ void trace_paths(GiaResult& r, const HitGraph& g, const std::array<const GiaTopo
 }
 
 // ---------------------------------------------------------------------------------------------
-// Colouring
-
-std::vector<double> lumped_vertex_area(const Positions& x, const Faces& f) {
-  std::vector<double> area(x.rows(), 0.0);
-  for (int t = 0; t < f.rows(); ++t) {
-    const Vec3 a = row3(x, f(t, 0)), b = row3(x, f(t, 1)), c = row3(x, f(t, 2));
-    const double third = (b - a).cross(c - a).norm() / 6.0;
-    for (int k = 0; k < 3; ++k) area[f(t, k)] += third;
-  }
-  return area;
-}
-
-// Edges of mesh m crossed an odd number of times by the given hits (even crossings leave both
-// endpoints on the same side).
-std::vector<int> odd_crossed_edges(const GiaResult& r, const std::vector<int>& hits, int m) {
-  std::vector<int> crossed;
-  for (int h : hits)
-    if (r.hits[h].edge_mesh == m) crossed.push_back(r.hits[h].edge);
-  std::sort(crossed.begin(), crossed.end());
-  std::vector<int> walls;
-  for (size_t i = 0; i < crossed.size();) {
-    size_t j = i;
-    while (j < crossed.size() && crossed[j] == crossed[i]) ++j;
-    if ((j - i) % 2 == 1) walls.push_back(crossed[i]);
-    i = j;
-  }
-  return walls;
-}
-
-// Flood fill of the vertex graph without the edges whose wall_stamp equals `stamp` and without
-// blocked vertices (set beforehand to region_stamp = stamp, region = -1). Each seed not yet
-// reached starts a region; returns the regions' areas and seeds.
-struct FloodFill {
-  const GiaTopology& topo;
-  const std::vector<double>& vertex_area;
-  std::vector<int> wall_stamp, region_stamp, region, queue;
-
-  FloodFill(const GiaTopology& t, const std::vector<double>& area)
-      : topo(t), vertex_area(area), wall_stamp(t.edges.rows(), -1), region_stamp(area.size(), -1),
-        region(area.size(), -1) {}
-
-  void block(int v, int stamp) {
-    region_stamp[v] = stamp;
-    region[v] = -1;
-  }
-
-  void fill(const std::vector<int>& seeds, int stamp, std::vector<double>& region_area, std::vector<int>& region_seed) {
-    for (int seed : seeds) {
-      if (region_stamp[seed] == stamp) continue;
-      const int id = static_cast<int>(region_area.size());
-      region_area.push_back(0.0);
-      region_seed.push_back(seed);
-      queue.assign(1, seed);
-      region_stamp[seed] = stamp;
-      region[seed] = id;
-      for (size_t q = 0; q < queue.size(); ++q) {
-        const int v = queue[q];
-        region_area[id] += vertex_area[v];
-        for (int k = topo.vertex_offset[v]; k < topo.vertex_offset[v + 1]; ++k) {
-          const int w = topo.vertex_neighbour[k];
-          if (region_stamp[w] == stamp || wall_stamp[topo.vertex_edge[k]] == stamp) continue;
-          region_stamp[w] = stamp;
-          region[w] = id;
-          queue.push_back(w);
-        }
-      }
-    }
-  }
-};
+// Colouring (lumped_vertex_area, odd_crossed_edges, FloodFill: gia_regions.h)
 
 // Parity colouring of one mesh over all separating paths together: regions of the mesh cut by
 // every wall alternate in/out across walls, so each connected group of regions is two-coloured
@@ -671,6 +604,31 @@ GiaResult analyse(const std::array<MeshRef, 2>& mesh, bool self, const GiaOption
 }
 
 }  // namespace
+
+std::vector<double> lumped_vertex_area(const Positions& x, const Faces& f) {
+  std::vector<double> area(x.rows(), 0.0);
+  for (int t = 0; t < f.rows(); ++t) {
+    const Vec3 a = row3(x, f(t, 0)), b = row3(x, f(t, 1)), c = row3(x, f(t, 2));
+    const double third = (b - a).cross(c - a).norm() / 6.0;
+    for (int k = 0; k < 3; ++k) area[f(t, k)] += third;
+  }
+  return area;
+}
+
+std::vector<int> odd_crossed_edges(const GiaResult& r, const std::vector<int>& hits, int m) {
+  std::vector<int> crossed;
+  for (int h : hits)
+    if (r.hits[h].edge_mesh == m) crossed.push_back(r.hits[h].edge);
+  std::sort(crossed.begin(), crossed.end());
+  std::vector<int> walls;
+  for (size_t i = 0; i < crossed.size();) {
+    size_t j = i;
+    while (j < crossed.size() && crossed[j] == crossed[i]) ++j;
+    if ((j - i) % 2 == 1) walls.push_back(crossed[i]);
+    i = j;
+  }
+  return walls;
+}
 
 GiaTopology build_gia_topology(int vertex_count, const Faces& faces) {
   GiaTopology topo;
