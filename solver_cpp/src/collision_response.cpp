@@ -471,15 +471,13 @@ void CollisionSystem::expand_triangle_pair(int cf, int of, int body, std::vector
   }
   const BodyState& b = bodies_[body];
   auto bv = [](int k) { return -1 - k; };
-  // GIA one-way membrane, body side: a body face in intersection with the cloth (in the body's
-  // coloured region, or pierced) lets cloth pass, so a body segment that went through the cloth
-  // can come back out of it.
-  // A body face wholly in the body's coloured region lets all cloth pass; one on the contour
-  // lets pass only cloth triangles that are themselves on the contour (pierced by the body or
-  // piercing it), so cloth away from the intersection still cannot enter.
-  // Faces only pierced (no coloured corner) are opened the same way except in a body/body
-  // pinch region: there the squeezed cloth is on the contour of both bodies, and opening the
-  // pierced faces of a coarse body (a box's top) let it sink into the lower box.
+  // GIA one-way membrane, body side (BodyState::face_coloured), so a body segment that went
+  // through the cloth can come back out: a body face wholly in the body's coloured region lets
+  // all cloth pass; one with some coloured corner, or only pierced, lets pass the cloth
+  // triangles on the contour (pierced by the body or piercing it), so cloth away from the
+  // intersection still cannot enter. Pierced-only faces stay closed in a body/body pinch
+  // region: the squeezed cloth is on the contour of both bodies there, and opening a coarse
+  // body's pierced faces (a box's top) let it sink into the lower box.
   const int body_colour = body_face_colour(of, body);
   const bool in_pinch = !pinch_faces_.empty() && !pinch_faces_[body].empty() && pinch_faces_[body][cf];
   if (body_colour == 3 || (body_colour >= 1 && cloth_face_contour(cf, body) && (body_colour == 2 || !in_pinch))) return;
