@@ -251,12 +251,7 @@ void CollisionSystem::pinch_update() {
 }
 
 void CollisionSystem::gia_clear() {
-  for (BodyState& state : bodies_) {
-    state.inside.clear();
-    state.face_coloured.clear();
-    state.vertex_coloured.clear();
-    state.cloth_face_contour.clear();
-  }
+  for (BodyState& state : bodies_) state.clear_gia();
   untangle_.clear();
 }
 
@@ -266,10 +261,7 @@ bool CollisionSystem::gia_colour(const Positions& x) {
   GiaOptions options;
   options.threads = threads_;
   for (BodyState& state : bodies_) {
-    state.inside.clear();
-    state.face_coloured.clear();
-    state.vertex_coloured.clear();
-    state.cloth_face_contour.clear();
+    state.clear_gia();
     if (!state.collide || !state.closed) continue;
     // Cloth side: the exact inside test (ray parity). Body side: the parity colouring of the
     // body over all separating paths, so a body segment that passes wholly through the cloth
@@ -280,12 +272,11 @@ bool CollisionSystem::gia_colour(const Positions& x) {
     const GiaMeshColouring& body = gia.mesh[1];
     state.inside.assign(cloth.inside_other.begin(), cloth.inside_other.end());
     if (state.inside.empty()) state.inside.assign(vertex_count_, 0);
-    state.vertex_coloured.assign(body.vertex_parity_colour.begin(), body.vertex_parity_colour.end());
     const int faces = static_cast<int>(state.faces.rows());
     state.face_coloured.assign(faces, 0);
     for (int f = 0; f < faces; ++f) {
       int coloured_corners = 0;
-      for (int k = 0; k < 3; ++k) coloured_corners += state.vertex_coloured[state.faces(f, k)] != 0;
+      for (int k = 0; k < 3; ++k) coloured_corners += body.vertex_parity_colour[state.faces(f, k)] != 0;
       // Pierced faces with no coloured corner stay closed to the membrane (see expand_triangle_pair).
       state.face_coloured[f] = coloured_corners == 3 ? 3 : coloured_corners > 0 ? 2 : body.face_colour[f] == kGiaContour ? 1 : 0;
       body_faces += state.face_coloured[f] != 0;

@@ -133,8 +133,12 @@ class CollisionSystem {
     // per body face: 3 all vertices in the body's coloured region (in intersection with the
     // cloth), 2 some vertex in it, 1 none but pierced by the cloth, 0 free
     std::vector<char> face_coloured;
-    std::vector<char> vertex_coloured;   // per body vertex: in the body's coloured region
     std::vector<char> cloth_face_contour;  // per cloth face: it and the body pierce each other
+    void clear_gia() {
+      inside.clear();
+      face_coloured.clear();
+      cloth_face_contour.clear();
+    }
   };
   // GIA at the start of a step: colour cloth vertices inside closed bodies (their feature
   // pairs with that body are skipped: a one-way membrane) and push contour vertices out.
