@@ -1,0 +1,38 @@
+// Pins: cloth vertices held at a fixed point, or attached to a point on an animated body and
+// following it (barycentric point of the closest body triangle plus an offset in that
+// triangle's local frame). Each substep they become prescribed velocity changes in the
+// pre-filtered solve.
+#pragma once
+
+#include "weft/bodies/bodies.h"
+#include "weft/linear_system/pcg.h"
+
+namespace weft {
+
+struct FixedPin {
+  int vertex;
+  Vec3 position;
+};
+
+struct BodyPin {
+  int vertex;
+  int body;
+  int face;
+  Vec3 barycentric;
+  Vec3 local_offset;  // in triangle_frame() coordinates
+};
+
+struct PinSet {
+  std::vector<FixedPin> fixed;
+  std::vector<BodyPin> attached;
+};
+
+// Closest point on triangle (a, b, c) to p, as barycentric coordinates.
+Vec3 closest_point_barycentric(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c);
+
+// Attach a vertex at position x to the closest point of a body (positions as given).
+BodyPin attach_to_body(int vertex, const Vec3& x, int body_index, const Faces& faces, const Positions& positions);
+
+Vec3 body_pin_target(const BodyPin& pin, const Faces& faces, const Positions& body_positions);
+
+}  // namespace weft

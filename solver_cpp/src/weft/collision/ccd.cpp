@@ -1,0 +1,146 @@
+#include "weft/collision/ccd.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <queue>
+#include <vector>
+
+namespace weft {
+
+// Floating-point error of one evaluation of F at a corner (t, u, v), t, u, v in [0, 1].
+// Let M be the largest |coordinate k| among the 8 input points and u = 2^-53 the unit round-off.
+// Displacements d = fl(x1 - x0) are computed once (|d| <= 2M, error <= 2uM). Interpolation
+// x(t) = fl(x0 + fl(t d)) has error <= 2uM + 2uM + 1.01uM < 6uM and |x(t)| <= 1.01M. A
+// difference of two interpolated points errs by < 12uM + 2.02uM = 14.1uM; scaling it by
+// u or v in [0, 1] adds < 2.1uM. Vertex-triangle F = ((p - a) - u(b - a)) - v(c - a): three such
+// differences (< 14.1, 16.2, 16.2 uM) and two subtractions of terms below 6.1M (< 12.2uM):
+// < 59uM. Edge-edge F = (a0 + u(a1 - a0)) - (b0 + v(b1 - b0)): two interpolated points (6uM
+// each), two scaled differences (16.2uM each) and three additions of terms below 6.1M
+// (< 18.3uM): < 63uM. We use 128uM, twice the derived bound, plus 32 * 2^-1074 per coordinate
+// for results that underflow (gradual underflow errs by at most half a subnormal ulp per
+// operation).
+Vec3 ccd_error_bound(const std::array<Vec3, 4>& start, const std::array<Vec3, 4>& end) {
+  Vec3 m = Vec3::Zero();
+  for (int i = 0; i < 4; ++i) m = m.cwiseMax(start[i].cwiseAbs()).cwiseMax(end[i].cwiseAbs());
+  constexpr double kUnitRoundoff = std::numeric_limits<double>::epsilon() * 0.5;
+  constexpr double kUnderflow = 32.0 * std::numeric_limits<double>::denorm_min();
+  return (128.0 * kUnitRoundoff) * m + Vec3::Constant(kUnderflow);
+}
+
+namespace {
+
+struct Box {
+  double t0, t1, u0, u1, v0, v1;
+  int depth;
+};
+// Earliest start first; among boxes with the same start, the deepest first (depth-first along
+// a contact curve instead of breadth-first across it).
+struct LaterFirst {
+  bool operator()(const Box& a, const Box& b) const {
+    if (a.t0 != b.t0) return a.t0 > b.t0;
+    return a.depth < b.depth;
+  }
+};
+
+template <bool kEdgeEdge>
+inline Vec3 evaluate(const std::array<Vec3, 4>& s, const std::array<Vec3, 4>& d, double t, double u, double v) {
+  const Vec3 x0 = s[0] + t * d[0], x1 = s[1] + t * d[1], x2 = s[2] + t * d[2], x3 = s[3] + t * d[3];
+  if constexpr (kEdgeEdge) {
+    return (x0 + u * (x1 - x0)) - (x2 + v * (x3 - x2));
+  } else {
+    return ((x0 - x1) - u * (x2 - x1)) - v * (x3 - x1);
+  }
+}
+
+constexpr double kMinimumWidth = 0x1p-40;  // boxes are not split below this in any parameter
+
+template <bool kEdgeEdge>
+CcdResult run_ccd(const std::array<Vec3, 4>& start, const std::array<Vec3, 4>& end, const CcdOptions& options) {
+  CcdResult result;
+  for (int i = 0; i < 4; ++i) {
+    if (!start[i].allFinite() || !end[i].allFinite()) {
+      result.hit = true;  // nothing can be said: conservatively a hit at the start
+      result.toi = 0.0;
+      return result;
+    }
+  }
+  std::array<Vec3, 4> d;
+  for (int i = 0; i < 4; ++i) d[i] = end[i] - start[i];
+  const Vec3 err = ccd_error_bound(start, end);
+  double scale = 1e-300;
+  for (int i = 0; i < 4; ++i) scale = std::max({scale, start[i].cwiseAbs().maxCoeff(), end[i].cwiseAbs().maxCoeff()});
+  const double tolerance =
+      std::max({options.relative_tolerance * scale, options.absolute_tolerance, 4.0 * err.maxCoeff()});
+  const Vec3 widen = err + Vec3::Constant(std::max(options.minimum_separation, 0.0));
+  const double t_max = std::clamp(options.t_max, 0.0, 1.0);
+
+  std::priority_queue<Box, std::vector<Box>, LaterFirst> queue;
+  queue.push({0.0, t_max, 0.0, 1.0, 0.0, 1.0, 0});
+  std::array<Vec3, 8> f;
+  while (!queue.empty()) {
+    const Box box = queue.top();
+    queue.pop();
+    if (!kEdgeEdge && box.u0 + box.v0 > 1.0) continue;  // entirely outside the triangle
+    ++result.boxes;
+    for (int c = 0; c < 8; ++c)
+      f[c] = evaluate<kEdgeEdge>(start, d, (c & 4) ? box.t1 : box.t0, (c & 2) ? box.u1 : box.u0,
+                                 (c & 1) ? box.v1 : box.v0);
+    Vec3 lo = f[0], hi = f[0];
+    for (int c = 1; c < 8; ++c) {
+      lo = lo.cwiseMin(f[c]);
+      hi = hi.cwiseMax(f[c]);
+    }
+    if ((lo - widen).maxCoeff() > 0.0 || (hi + widen).minCoeff() < 0.0) continue;  // zero excluded
+    const double t_width = box.t1 - box.t0, u_width = box.u1 - box.u0, v_width = box.v1 - box.v0;
+    const bool tiny = t_width <= kMinimumWidth && u_width <= kMinimumWidth && v_width <= kMinimumWidth;
+    if ((hi - lo).maxCoeff() <= tolerance || tiny || result.boxes >= options.max_boxes) {
+      result.hit = true;
+      result.toi = box.t0;  // every box still queued starts at or after this time
+      result.budget_exhausted = !tiny && (hi - lo).maxCoeff() > tolerance;
+      return result;
+    }
+    // Split the parameter along which F changes most (from the corner differences).
+    double spread[3] = {0.0, 0.0, 0.0};
+    for (int c = 0; c < 8; ++c) {
+      if (!(c & 4)) spread[0] = std::max(spread[0], (f[c | 4] - f[c]).cwiseAbs().maxCoeff());
+      if (!(c & 2)) spread[1] = std::max(spread[1], (f[c | 2] - f[c]).cwiseAbs().maxCoeff());
+      if (!(c & 1)) spread[2] = std::max(spread[2], (f[c | 1] - f[c]).cwiseAbs().maxCoeff());
+    }
+    if (t_width <= kMinimumWidth) spread[0] = -1.0;
+    if (u_width <= kMinimumWidth) spread[1] = -1.0;
+    if (v_width <= kMinimumWidth) spread[2] = -1.0;
+    const int axis = static_cast<int>(std::max_element(spread, spread + 3) - spread);
+    Box a = box, b = box;
+    a.depth = b.depth = box.depth + 1;
+    if (axis == 0) {
+      const double m = 0.5 * (box.t0 + box.t1);
+      a.t1 = m;
+      b.t0 = m;
+    } else if (axis == 1) {
+      const double m = 0.5 * (box.u0 + box.u1);
+      a.u1 = m;
+      b.u0 = m;
+    } else {
+      const double m = 0.5 * (box.v0 + box.v1);
+      a.v1 = m;
+      b.v0 = m;
+    }
+    queue.push(a);
+    queue.push(b);
+  }
+  return result;
+}
+
+}  // namespace
+
+CcdResult vertex_triangle_ccd(const std::array<Vec3, 4>& start, const std::array<Vec3, 4>& end,
+                              const CcdOptions& options) {
+  return run_ccd<false>(start, end, options);
+}
+
+CcdResult edge_edge_ccd(const std::array<Vec3, 4>& start, const std::array<Vec3, 4>& end, const CcdOptions& options) {
+  return run_ccd<true>(start, end, options);
+}
+
+}  // namespace weft

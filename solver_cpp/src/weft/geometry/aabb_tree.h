@@ -1,0 +1,65 @@
+// Broad phase: an axis-aligned bounding-box tree over triangles, built once from the
+// connectivity's initial shape (median splits) and refitted every step, so its cost is linear
+// in the number of triangles and nothing is built for features a scene has switched off.
+#pragma once
+
+#include <limits>
+#include <vector>
+
+#include "weft/common/types.h"
+
+namespace weft {
+
+struct Aabb {
+  Vec3 lo = Vec3::Constant(std::numeric_limits<double>::infinity());
+  Vec3 hi = Vec3::Constant(-std::numeric_limits<double>::infinity());
+  void expand(const Vec3& p) {
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  }
+  void expand(const Aabb& b) {
+    lo = lo.cwiseMin(b.lo);
+    hi = hi.cwiseMax(b.hi);
+  }
+  void inflate(double r) {
+    lo.array() -= r;
+    hi.array() += r;
+  }
+  bool overlaps(const Aabb& b) const {
+    return (lo.array() <= b.hi.array()).all() && (b.lo.array() <= hi.array()).all();
+  }
+};
+
+// Boxes of triangles spanning two configurations (start and end of a step), widened by a
+// per-triangle margin. end may be the same object as start (static boxes).
+void triangle_boxes(const Faces& faces, const Positions& start, const Positions& end,
+                    const std::vector<double>& margin, std::vector<Aabb>& boxes);
+
+class AabbTree {
+ public:
+  // Builds the hierarchy over the given leaf boxes (leaf i is box i).
+  void build(const std::vector<Aabb>& leaves);
+  // Same leaves, new boxes: recompute node boxes bottom-up.
+  void refit(const std::vector<Aabb>& leaves);
+  bool empty() const { return nodes_.empty(); }
+
+  // Every pair (i, j), i < j, of leaves whose boxes overlap.
+  void self_pairs(std::vector<std::pair<int, int>>& out) const;
+  // Every pair (i of this tree, j of other) whose boxes overlap.
+  void pairs(const AabbTree& other, std::vector<std::pair<int, int>>& out) const;
+
+ private:
+  struct Node {
+    Aabb box;
+    int left = -1, right = -1;  // children, -1 for leaves
+    int leaf = -1;              // leaf index for leaves
+  };
+  int build_range(std::vector<int>& order, std::vector<Vec3>& centre, int begin, int end);
+  void self_node(int n, std::vector<std::pair<int, int>>& out) const;
+  void cross(int a, const AabbTree& tb, int b, bool same, std::vector<std::pair<int, int>>& out) const;
+
+  std::vector<Node> nodes_;
+  std::vector<int> post_order_;  // children before parents, for refitting
+};
+
+}  // namespace weft

@@ -1,0 +1,188 @@
+#include "weft/integrator.h"
+
+#include <chrono>
+#include <cmath>
+#include <string>
+
+namespace weft {
+
+namespace {
+using Clock = std::chrono::steady_clock;
+double seconds_since(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+std::vector<double> to_std(const VectorX& v) { return {v.data(), v.data() + v.size()}; }
+
+void require_rows(const VectorX& v, Eigen::Index n, const char* name) {
+  if (v.size() != n)
+    throw std::invalid_argument(std::string(name) + " has " + std::to_string(v.size()) + " entries, expected " +
+                                std::to_string(n) + " (one per face)");
+}
+}  // namespace
+
+Simulation::Simulation(const SimulationSetup& s)
+    : settings_(s.solver), mesh_(build_cloth_mesh(static_cast<int>(s.positions.rows()), s.faces, s.face_uv,
+                                                   s.rest_positions)) {
+  const int n = mesh_.vertex_count;
+  const Eigen::Index face_count = s.faces.rows();
+  require_rows(s.face_density, face_count, "face_density");
+  require_rows(s.face_stretch_warp, face_count, "face_stretch_warp");
+  require_rows(s.face_stretch_weft, face_count, "face_stretch_weft");
+  require_rows(s.face_shear, face_count, "face_shear");
+  require_rows(s.face_bend, face_count, "face_bend");
+  require_rows(s.face_damping, face_count, "face_damping");
+  if (settings_.threads < 1) throw std::invalid_argument("solver.threads must be at least 1");
+  if (!(settings_.cg_tolerance > 0.0)) throw std::invalid_argument("solver.cg_tolerance must be positive");
+  if (settings_.cg_max_iterations < 1) throw std::invalid_argument("solver.cg_max_iterations must be at least 1");
+
+  ClothMaterials materials;
+  materials.face_stretch_warp = to_std(s.face_stretch_warp);
+  materials.face_stretch_weft = to_std(s.face_stretch_weft);
+  materials.face_shear = to_std(s.face_shear);
+  materials.face_damping = to_std(s.face_damping);
+  materials.hinge_bend.resize(mesh_.hinges.size());
+  for (size_t h = 0; h < mesh_.hinges.size(); ++h)
+    materials.hinge_bend[h] = 0.5 * (s.face_bend[mesh_.hinge_faces[h][0]] + s.face_bend[mesh_.hinge_faces[h][1]]);
+  materials.vertex_mass.assign(n, 0.0);
+  for (Eigen::Index f = 0; f < face_count; ++f)
+    for (int c = 0; c < 3; ++c) materials.vertex_mass[s.faces(f, c)] += s.face_density[f] * mesh_.rest_area[f] / 3.0;
+  for (int i = 0; i < n; ++i)
+    if (!(materials.vertex_mass[i] > 0.0))
+      throw std::invalid_argument("vertex " + std::to_string(i) + " has no mass (it belongs to no face)");
+  force_model_ = std::make_unique<ForceModel>(mesh_, std::move(materials), s.environment);
+
+  if (s.body_faces.size() != s.body_positions.size())
+    throw std::invalid_argument("body_faces and body_positions differ in length");
+  for (size_t b = 0; b < s.body_faces.size(); ++b) bodies_.emplace_back(s.body_faces[b], s.body_positions[b]);
+  body_scratch_.resize(bodies_.size());
+
+  x_ = s.positions;
+  v_ = s.velocities.rows() == 0 ? Positions(Positions::Zero(n, 3)) : s.velocities;
+  if (v_.rows() != n) throw std::invalid_argument("velocities must have one row per vertex");
+  if (!x_.allFinite() || !v_.allFinite()) throw std::invalid_argument("positions and velocities must be finite");
+
+  for (int vertex : s.fixed_pin_vertices) {
+    if (vertex < 0 || vertex >= n) throw std::invalid_argument("pinned vertex " + std::to_string(vertex) + " out of range");
+    pins_.fixed.push_back({vertex, row3(x_, vertex)});
+  }
+  if (s.body_pin_vertices.size() != s.body_pin_bodies.size())
+    throw std::invalid_argument("body_pin_vertices and body_pin_bodies differ in length");
+  for (size_t k = 0; k < s.body_pin_vertices.size(); ++k) {
+    const int vertex = s.body_pin_vertices[k], body = s.body_pin_bodies[k];
+    if (vertex < 0 || vertex >= n) throw std::invalid_argument("pinned vertex " + std::to_string(vertex) + " out of range");
+    if (body < 0 || body >= body_count()) throw std::invalid_argument("pin body " + std::to_string(body) + " out of range");
+    pins_.attached.push_back(
+        attach_to_body(vertex, row3(x_, vertex), body, bodies_[body].faces(), bodies_[body].frame_start()));
+  }
+  dv_.setZero(3 * n);
+  filter_.reset(n);
+  LinearSystemOptions linear{settings_.linear_system, settings_.matrix_precision, settings_.threads,
+                             PcgSettings{settings_.cg_tolerance, settings_.cg_max_iterations}};
+  linear_ = make_linear_system(mesh_, *force_model_, linear,
+                               static_cast<int>(pins_.fixed.size() + pins_.attached.size()));
+  if (s.collision.enabled) {
+    std::vector<int> pinned;
+    for (const FixedPin& pin : pins_.fixed) pinned.push_back(pin.vertex);
+    for (const BodyPin& pin : pins_.attached) pinned.push_back(pin.vertex);
+    collisions_ = std::make_unique<CollisionSystem>(mesh_.faces, x_, vertex_mass(), pinned, bodies_, s.collision,
+                                                    settings_.threads);
+  }
+}
+
+void Simulation::set_body_keyframes(int body, const Positions& frame_start, const Positions& frame_end) {
+  if (body < 0 || body >= body_count()) throw std::invalid_argument("body " + std::to_string(body) + " out of range");
+  bodies_[body].set_keyframes(frame_start, frame_end);
+}
+
+void Simulation::set_state(const Positions& x, const Positions& v, const VectorX& warm_start) {
+  if (x.rows() != x_.rows() || v.rows() != v_.rows())
+    throw std::invalid_argument("state must have one row per vertex (" + std::to_string(x_.rows()) + ")");
+  if (warm_start.size() != 0 && warm_start.size() != 3 * x_.rows())
+    throw std::invalid_argument("warm_start must be empty or have 3 entries per vertex");
+  if (!x.allFinite() || !v.allFinite()) throw std::invalid_argument("state must be finite");
+  x_ = x;
+  v_ = v;
+  if (warm_start.size() == 0) dv_.setZero(); else dv_ = warm_start;
+}
+
+Energies Simulation::energies() const {
+  Energies e;
+  const auto& mass = vertex_mass();
+  for (int i = 0; i < mesh_.vertex_count; ++i) e.kinetic += 0.5 * mass[i] * v_.row(i).squaredNorm();
+  e.gravity = force_model_->gravity_energy(x_);
+  e.elastic = force_model_->elastic_energy(x_, kAllForces);
+  return e;
+}
+
+void Simulation::build_filter(double h, double alpha_end) {
+  filter_.reset(mesh_.vertex_count);
+  for (const FixedPin& pin : pins_.fixed)
+    filter_.constrain_fully(pin.vertex, (pin.position - row3(x_, pin.vertex)) / h - row3(v_, pin.vertex));
+  if (pins_.attached.empty()) return;
+  for (size_t b = 0; b < bodies_.size(); ++b) bodies_[b].positions_at(alpha_end, body_scratch_[b]);
+  for (const BodyPin& pin : pins_.attached) {
+    const Vec3 target = body_pin_target(pin, bodies_[pin.body].faces(), body_scratch_[pin.body]);
+    filter_.constrain_fully(pin.vertex, (target - row3(x_, pin.vertex)) / h - row3(v_, pin.vertex));
+  }
+}
+
+Simulation::StepTimings Simulation::step(double time, double h, double alpha_end) {
+  StepTimings t;
+  const auto build_start = Clock::now();
+  linear_->build(x_, v_, time, h);
+  build_filter(h, alpha_end);
+  t.build = seconds_since(build_start);
+  if (collisions_)  // cloth/body contacts as prescribed normal velocities in the filtered solve
+    collisions_->constrain_contacts(x_, v_, h, bodies_, step_alpha_start_, alpha_end, filter_);
+
+  const auto solve_start = Clock::now();
+  const PcgStats stats = linear_->solve(filter_, dv_);
+  flat(v_) += dv_;
+  if (collisions_) {  // collision stage: makes x + h v collision-free
+    const auto collision_start = Clock::now();
+    collisions_->respond(x_, v_, h, bodies_, step_alpha_start_, alpha_end);
+    t.collision = seconds_since(collision_start);
+  }
+  flat(x_) += h * flat(v_);
+  t.solve = seconds_since(solve_start) - t.collision;
+  t.iterations = stats.iterations;
+  t.residual = stats.relative_residual;
+  t.converged = stats.converged;
+  if (!x_.allFinite() || !v_.allFinite())
+    throw SolverDivergence("non-finite positions or velocities after the linear solve (CG iterations " +
+                           std::to_string(stats.iterations) + ", relative residual " +
+                           std::to_string(stats.relative_residual) + ")");
+  return t;
+}
+
+FrameTelemetry Simulation::advance_frame(double frame_start_time, double frame_duration, int substeps) {
+  if (substeps < 1) throw std::invalid_argument("substeps must be at least 1");
+  if (!(frame_duration > 0.0)) throw std::invalid_argument("frame duration must be positive");
+  FrameTelemetry telemetry;
+  const auto frame_start = Clock::now();
+  const double h = frame_duration / substeps;
+  if (collisions_) collisions_->begin_frame();
+  for (int s = 0; s < substeps; ++s) {
+    step_alpha_start_ = static_cast<double>(s) / substeps;
+    const StepTimings t = step(frame_start_time + s * h, h, static_cast<double>(s + 1) / substeps);
+    telemetry.build_seconds += t.build;
+    telemetry.solve_seconds += t.solve;
+    telemetry.cg_iterations += t.iterations;
+    telemetry.final_residual = t.residual;
+    telemetry.unconverged_substeps += t.converged ? 0 : 1;
+  }
+  telemetry.substeps = substeps;
+  if (collisions_) {
+    telemetry.collision = collisions_->end_frame(x_, bodies_);
+    telemetry.collision_seconds = telemetry.collision.total_seconds();
+    telemetry.gia_seconds = telemetry.collision.gia_seconds;
+  }
+  const Energies e = energies();
+  telemetry.kinetic_energy = e.kinetic;
+  telemetry.potential_energy = e.gravity + e.elastic;
+  telemetry.total_seconds = seconds_since(frame_start);
+  return telemetry;
+}
+
+}  // namespace weft

@@ -1,0 +1,127 @@
+// Simulation state and the implicit integrator: one linearized backward-Euler step per substep
+// (Baraff & Witkin 1998),
+//   (M - h dF/dv - h^2 dF/dx) dv = h (F + h dF/dx v),   v += dv,   x += h v,
+// with pins as prescribed velocity changes in the pre-filtered PCG.
+#pragma once
+
+#include <memory>
+#include <stdexcept>
+
+#include "weft/collision/collision_response.h"
+#include "weft/bodies/constraints.h"
+#include "weft/forces/forces.h"
+#include "weft/linear_system/linear_system.h"
+#include "weft/linear_system/linear_system_path.h"
+
+namespace weft {
+
+struct SolverSettings {
+  double cg_tolerance = 1e-5;
+  int cg_max_iterations = 500;
+  int threads = 1;
+  LinearSystemKind linear_system = LinearSystemKind::kFast;  // fast | reference (linear_system_path.h)
+  MatrixPrecision matrix_precision = MatrixPrecision::kFloat32;  // fast path's matrix values
+};
+
+// Everything needed to build a simulation, as flat arrays (cloth pieces concatenated).
+struct SimulationSetup {
+  Positions positions;
+  Positions velocities;  // empty: at rest
+  Faces faces;
+  FaceUVs face_uv;
+  Positions rest_positions;  // empty: flat rest shape
+  VectorX face_density, face_stretch_warp, face_stretch_weft, face_shear, face_bend, face_damping;
+  Environment environment;
+  std::vector<int> fixed_pin_vertices;  // held at their initial positions
+  std::vector<int> body_pin_vertices;   // attached to the closest point of body_pin_bodies[k]
+  std::vector<int> body_pin_bodies;
+  std::vector<Faces> body_faces;
+  std::vector<Positions> body_positions;  // at the first frame
+  SolverSettings solver;
+  CollisionSettings collision;  // collision_response.h; disabled by default
+};
+
+struct FrameTelemetry {
+  double build_seconds = 0.0;
+  double solve_seconds = 0.0;
+  double collision_seconds = 0.0;
+  double gia_seconds = 0.0;
+  double total_seconds = 0.0;
+  int cg_iterations = 0;
+  double final_residual = 0.0;  // relative residual of the last substep's solve
+  int substeps = 0;
+  int unconverged_substeps = 0;
+  double kinetic_energy = 0.0;
+  double potential_energy = 0.0;  // gravity + elastic
+  CollisionTelemetry collision;   // split of collision_seconds and counts (collision_response.h)
+};
+
+struct Energies {
+  double kinetic = 0.0;
+  double gravity = 0.0;
+  double elastic = 0.0;
+  double total() const { return kinetic + gravity + elastic; }
+};
+
+// The solver produced non-finite state; the message says where.
+struct SolverDivergence : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+class Simulation {
+ public:
+  explicit Simulation(const SimulationSetup& setup);
+  Simulation(const Simulation&) = delete;
+  Simulation& operator=(const Simulation&) = delete;
+
+  // Advances one frame [t, t + duration] in `substeps` equal substeps. Bodies move linearly
+  // from their frame-start to frame-end keyframes across the frame.
+  FrameTelemetry advance_frame(double frame_start_time, double frame_duration, int substeps);
+  void set_body_keyframes(int body, const Positions& frame_start, const Positions& frame_end);
+
+  const Positions& positions() const { return x_; }
+  const Positions& velocities() const { return v_; }
+  // The last velocity change seeds the next CG solve; restoring it with the state makes a
+  // resumed run bitwise identical to an uninterrupted one.
+  const VectorX& warm_start() const { return dv_; }
+  void set_state(const Positions& x, const Positions& v, const VectorX& warm_start);
+  Energies energies() const;
+
+  const ClothMesh& mesh() const { return mesh_; }
+  const ForceModel& force_model() const { return *force_model_; }
+  const std::vector<double>& vertex_mass() const { return force_model_->materials().vertex_mass; }
+  const PinSet& pins() const { return pins_; }
+  int body_count() const { return static_cast<int>(bodies_.size()); }
+  const SolverSettings& settings() const { return settings_; }
+  const CollisionSystem* collision_system() const { return collisions_.get(); }
+  const std::vector<KinematicBody>& bodies() const { return bodies_; }
+  LinearSystemPath& linear_system() { return *linear_; }
+  const ConstraintFilter& constraint_filter() const { return filter_; }  // of the last step
+
+ private:
+  struct StepTimings {
+    double build = 0.0, solve = 0.0;
+    int iterations = 0;
+    double residual = 0.0;
+    bool converged = true;
+    double collision = 0.0;
+  };
+  StepTimings step(double time, double h, double alpha_end);
+  void build_filter(double h, double alpha_end);
+
+  SolverSettings settings_;
+  ClothMesh mesh_;
+  std::unique_ptr<ForceModel> force_model_;
+  std::unique_ptr<LinearSystemPath> linear_;
+  std::vector<KinematicBody> bodies_;
+  std::vector<Positions> body_scratch_;
+  PinSet pins_;
+  Positions x_, v_;
+  VectorX dv_;  // last velocity change, warm start for the next solve
+  ConstraintFilter filter_;
+  // Collision stage (collision_response.h): null when the scene has collisions switched off.
+  std::unique_ptr<CollisionSystem> collisions_;
+  double step_alpha_start_ = 0.0;  // frame fraction at the start of the current substep
+};
+
+}  // namespace weft

@@ -1,0 +1,259 @@
+#include "weft/linear_system/fast_linear_system.h"
+
+#include <algorithm>
+#include <numeric>
+#include <stdexcept>
+
+namespace weft {
+
+template <class Scalar>
+FastLinearSystem<Scalar>::FastLinearSystem(const ClothMesh& mesh, const ForceModel& model,
+                                           const LinearSystemOptions& options, int pinned_vertices)
+    : mesh_(mesh), model_(model), options_(options) {
+  const int n = mesh.vertex_count;
+  layout_ = build_force_elements(mesh, model.environment().air_drag > 0.0, pinned_vertices);
+  const int element_count = layout_.size();
+  if (static_cast<long long>(element_count) * kElementSlots * 2 >= (1LL << 32))
+    throw std::invalid_argument("mesh too large for the fast linear system's 32-bit element slots");
+
+  // Coupling graph of the elements and its RCM order.
+  std::vector<std::pair<int, int>> edges;
+  edges.reserve(static_cast<size_t>(element_count) * 6);
+  for (int e = 0; e < element_count; ++e)
+    for (int a = 0; a < layout_.count[e]; ++a)
+      for (int b = a + 1; b < layout_.count[e]; ++b) edges.emplace_back(layout_.vertices[e][a], layout_.vertices[e][b]);
+  const Graph graph = graph_from_edges(n, edges);
+  edges.clear();
+  edges.shrink_to_fit();
+  bandwidth_natural_ = bandwidth(graph, {});
+  order_ = reverse_cuthill_mckee(graph);
+  new_of_old_.resize(n);
+  for (int k = 0; k < n; ++k) new_of_old_[order_[k]] = k;
+  // Elements in RCM order too (by their lowest row), so that the gather over block rows reads
+  // element storage nearly sequentially instead of all over a large mesh's buffers.
+  {
+    std::vector<int> key(element_count), perm(element_count);
+    for (int e = 0; e < element_count; ++e) {
+      key[e] = n;
+      for (int a = 0; a < layout_.count[e]; ++a) key[e] = std::min(key[e], new_of_old_[layout_.vertices[e][a]]);
+    }
+    std::iota(perm.begin(), perm.end(), 0);
+    std::stable_sort(perm.begin(), perm.end(), [&](int a, int b) { return key[a] < key[b]; });
+    permute_elements(layout_, perm);
+  }
+
+  // Fixed pattern in RCM order: each row's neighbours plus the diagonal, ascending.
+  std::vector<int> row_start(n + 1, 0), columns;
+  columns.reserve(graph.neighbors.size() + n);
+  for (int r = 0; r < n; ++r) {
+    const int old = order_[r];
+    const size_t first = columns.size();
+    columns.push_back(r);
+    for (int k = graph.offsets[old]; k < graph.offsets[old + 1]; ++k) columns.push_back(new_of_old_[graph.neighbors[k]]);
+    std::sort(columns.begin() + first, columns.end());
+    row_start[r + 1] = static_cast<int>(columns.size());
+  }
+  diagonal_index_.resize(n);
+  for (int r = 0; r < n; ++r)
+    diagonal_index_[r] = static_cast<int>(std::lower_bound(columns.begin() + row_start[r], columns.begin() + row_start[r + 1], r) -
+                                          columns.begin());
+  auto find_block = [&](int r, int c) {
+    return static_cast<int>(std::lower_bound(columns.begin() + row_start[r], columns.begin() + row_start[r + 1], c) -
+                            columns.begin());
+  };
+
+  // Gather lists (counting sort keeps element order within each block and row).
+  const size_t block_count = columns.size();
+  block_source_start_.assign(block_count + 1, 0);
+  rhs_source_start_.assign(n + 1, 0);
+  for (int e = 0; e < element_count; ++e)
+    for (int a = 0; a < layout_.count[e]; ++a) {
+      const int r = new_of_old_[layout_.vertices[e][a]];
+      ++rhs_source_start_[r + 1];
+      for (int b = 0; b < layout_.count[e]; ++b) ++block_source_start_[find_block(r, new_of_old_[layout_.vertices[e][b]]) + 1];
+    }
+  std::partial_sum(block_source_start_.begin(), block_source_start_.end(), block_source_start_.begin());
+  std::partial_sum(rhs_source_start_.begin(), rhs_source_start_.end(), rhs_source_start_.begin());
+  block_source_.resize(block_source_start_.back());
+  rhs_source_.resize(rhs_source_start_.back());
+  std::vector<int> block_fill(block_source_start_.begin(), block_source_start_.end() - 1);
+  std::vector<int> rhs_fill(rhs_source_start_.begin(), rhs_source_start_.end() - 1);
+  for (int e = 0; e < element_count; ++e)
+    for (int a = 0; a < layout_.count[e]; ++a) {
+      const int r = new_of_old_[layout_.vertices[e][a]];
+      rhs_source_[rhs_fill[r]++] = static_cast<std::uint32_t>(e) * 4u + static_cast<std::uint32_t>(a);
+      for (int b = 0; b < layout_.count[e]; ++b) {
+        const int k = find_block(r, new_of_old_[layout_.vertices[e][b]]);
+        const std::uint32_t slot = static_cast<std::uint32_t>(e) * kElementSlots + element_slot(std::min(a, b), std::max(a, b));
+        block_source_[block_fill[k]++] = (slot << 1) | (a > b ? 1u : 0u);
+      }
+    }
+
+  matrix_.set_pattern(std::move(row_start), columns);
+  const auto& mass = model.materials().vertex_mass;
+  row_mass_.resize(n);
+  for (int r = 0; r < n; ++r) row_mass_[r] = mass[order_[r]];
+  rhs_.setZero(3 * n);
+  diagonal_.assign(n, Mat3::Zero());
+  permuted_filter_.reset(n);
+  permuted_dv_.setZero(3 * n);
+}
+
+template <class Scalar>
+void FastLinearSystem<Scalar>::build(const Positions& x, const Positions& v, double time, double h) {
+  const int n = mesh_.vertex_count;
+  const int threads = options_.threads;
+  compute_force_elements(model_, layout_, x, v, time, h, threads, storage_);
+  reduce_transient(transient_, new_of_old_, v, h, threads, transient_rows_);
+  const bool any_transient = !transient_rows_.rows.empty();
+  // Transient entries outside the fixed pattern, per touched row slot.
+  std::vector<std::vector<std::pair<int, Mat3>>> outside(transient_rows_.rows.size());
+
+  const Scalar* blocks = storage_.blocks.data();
+  const double* element_rhs = storage_.rhs.data();
+#pragma omp parallel for schedule(static) num_threads(threads)
+  for (int r = 0; r < n; ++r) {
+    const int begin = matrix_.row_begin(r), end = matrix_.row_end(r);
+    const int t = any_transient ? transient_rows_.slot[r] : -1;
+    int next_transient = t >= 0 ? transient_rows_.start[t] : 0;
+    const int transient_end = t >= 0 ? transient_rows_.start[t + 1] : 0;
+    for (int k = begin; k < end; ++k) {
+      double acc[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
+      for (int s = block_source_start_[k]; s < block_source_start_[k + 1]; ++s) {
+        const std::uint32_t code = block_source_[s];
+        const Scalar* src = blocks + 9 * static_cast<size_t>(code >> 1);
+        if (code & 1u) {
+          for (int i = 0; i < 3; ++i)
+            for (int j = 0; j < 3; ++j) acc[3 * i + j] += static_cast<double>(src[3 * j + i]);
+        } else {
+          for (int i = 0; i < 9; ++i) acc[i] += static_cast<double>(src[i]);
+        }
+      }
+      const int c = matrix_.column(k, r);
+      if (t >= 0) {  // transient entries of this row, columns ascending like the pattern's
+        while (next_transient < transient_end && transient_rows_.columns[next_transient] < c) {
+          outside[t].emplace_back(transient_rows_.columns[next_transient], transient_rows_.blocks[next_transient]);
+          ++next_transient;
+        }
+        if (next_transient < transient_end && transient_rows_.columns[next_transient] == c) {
+          const Mat3& a = transient_rows_.blocks[next_transient++];
+          for (int i = 0; i < 3; ++i)
+            for (int j = 0; j < 3; ++j) acc[3 * i + j] += a(i, j);
+        }
+      }
+      if (k == diagonal_index_[r]) {
+        acc[0] += row_mass_[r];
+        acc[4] += row_mass_[r];
+        acc[8] += row_mass_[r];
+      }
+      Scalar* dst = matrix_.block(k);  // column-major
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) dst[3 * j + i] = static_cast<Scalar>(acc[3 * i + j]);
+      if (k == diagonal_index_[r])
+        for (int i = 0; i < 3; ++i)
+          for (int j = 0; j < 3; ++j) diagonal_[r](i, j) = static_cast<double>(dst[3 * j + i]);
+    }
+    for (; next_transient < transient_end; ++next_transient)
+      outside[t].emplace_back(transient_rows_.columns[next_transient], transient_rows_.blocks[next_transient]);
+    Vec3 b = Vec3::Zero();
+    for (int s = rhs_source_start_[r]; s < rhs_source_start_[r + 1]; ++s) {
+      const double* src = element_rhs + 3 * static_cast<size_t>(rhs_source_[s]);
+      b += Vec3(src[0], src[1], src[2]);
+    }
+    if (t >= 0) b += transient_rows_.rhs[t];
+    rhs_.segment<3>(3 * r) = b;
+  }
+
+  // Transient part of the matrix: what did not overlap the fixed pattern (32-bit columns).
+  std::vector<int> rows, start{0};
+  std::vector<std::int32_t> cols;
+  std::vector<Scalar> values;
+  for (size_t t = 0; t < outside.size(); ++t) {
+    if (outside[t].empty()) continue;
+    rows.push_back(transient_rows_.rows[t]);
+    for (const auto& [c, a] : outside[t]) {
+      cols.push_back(c);
+      for (int j = 0; j < 3; ++j)
+        for (int i = 0; i < 3; ++i) values.push_back(static_cast<Scalar>(a(i, j)));
+    }
+    start.push_back(static_cast<int>(cols.size()));
+  }
+  matrix_.set_transient(std::move(rows), std::move(start), std::move(cols), std::move(values));
+}
+
+template <class Scalar>
+PcgStats FastLinearSystem<Scalar>::solve(const ConstraintFilter& filter, VectorX& dv) {
+  return solve_with(filter, dv, options_.pcg);
+}
+
+template <class Scalar>
+PcgStats FastLinearSystem<Scalar>::solve_with(const ConstraintFilter& filter, VectorX& dv, const PcgSettings& pcg) {
+  const int n = mesh_.vertex_count;
+  // Each CG iteration has three barriers; below a few thousand rows they cost more than the
+  // work they split (and far more on a loaded machine), so small systems solve on one thread.
+  // The iterates are bitwise the same either way (fixed-order reductions).
+  const int threads = n >= kParallelSolveRows ? options_.threads : 1;
+  if (dv.size() != 3 * n) throw std::invalid_argument("dv must have 3 entries per vertex");
+  // Filter and warm start into row order; only constrained vertices carry a non-identity S.
+  permuted_filter_.constrained_vertices = filter.constrained_vertices;
+#pragma omp parallel for schedule(static) num_threads(threads)
+  for (int r = 0; r < n; ++r) {
+    const int old = order_[r];
+    permuted_filter_.projection[r] = filter.projection[old];
+    permuted_filter_.prescribed.segment<3>(3 * r) = filter.prescribed.segment<3>(3 * old);
+    permuted_dv_.segment<3>(3 * r) = dv.segment<3>(3 * old);
+  }
+  auto apply = [this, threads](const VectorX& in, VectorX& out, double* chunk_dots) {
+    out.resize(in.size());
+    matrix_.multiply(in.data(), out.data(), threads, chunk_dots);
+  };
+  const PcgStats stats = prefiltered_pcg(apply, diagonal_, permuted_filter_, rhs_, permuted_dv_, pcg, threads);
+#pragma omp parallel for schedule(static) num_threads(threads)
+  for (int r = 0; r < n; ++r) dv.segment<3>(3 * order_[r]) = permuted_dv_.segment<3>(3 * r);
+  return stats;
+}
+
+template <class Scalar>
+LinearSystemInfo FastLinearSystem<Scalar>::info() const {
+  LinearSystemInfo i;
+  i.path = "fast";
+  i.precision = sizeof(Scalar) == 4 ? "float32" : "float64";
+  i.force_elements = layout_.size();
+  i.per_force_elements = layout_.per_force_elements;
+  i.bandwidth_natural = bandwidth_natural_;
+  i.bandwidth = matrix_.bandwidth();
+  i.narrow_columns = matrix_.narrow_columns();
+  i.blocks = static_cast<long long>(matrix_.block_count());
+  i.transient_blocks = static_cast<long long>(matrix_.transient_block_count());
+  i.bytes_per_multiply = matrix_.bytes_per_multiply();
+  return i;
+}
+
+template <class Scalar>
+Eigen::SparseMatrix<double, Eigen::RowMajor> FastLinearSystem<Scalar>::to_sparse_original() const {
+  const int n = mesh_.vertex_count;
+  std::vector<Eigen::Triplet<double>> entries;
+  auto add = [&](int r, int c, const Scalar* a) {
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j)
+        entries.emplace_back(3 * order_[r] + i, 3 * order_[c] + j, static_cast<double>(a[3 * j + i]));
+  };
+  for (int r = 0; r < n; ++r)
+    for (int k = matrix_.row_begin(r); k < matrix_.row_end(r); ++k) add(r, matrix_.column(k, r), matrix_.block(k));
+  for (const auto& [r, c, a] : matrix_.transient_entries()) add(r, c, a);
+  Eigen::SparseMatrix<double, Eigen::RowMajor> m(3 * n, 3 * n);
+  m.setFromTriplets(entries.begin(), entries.end());
+  return m;
+}
+
+template <class Scalar>
+VectorX FastLinearSystem<Scalar>::rhs_original() const {
+  VectorX b(rhs_.size());
+  for (int r = 0; r < mesh_.vertex_count; ++r) b.segment<3>(3 * order_[r]) = rhs_.segment<3>(3 * r);
+  return b;
+}
+
+template class FastLinearSystem<float>;
+template class FastLinearSystem<double>;
+
+}  // namespace weft

@@ -1,0 +1,70 @@
+// The fast linear system (issue 4, after the seed): see linear_system_path.h for the contract.
+//
+// Start-up: fixed force elements (force_elements.h), the vertex graph of their couplings, a
+// Reverse Cuthill-McKee order of it, the fixed block pattern in that order and, for every
+// global block and every rhs row, the list of element slots that contribute to it.
+// Per step: (1) elements computed in parallel into their own storage, (2) transient elements
+// reduced per row (transient.h), (3) a lock-free parallel pass over block rows gathers the
+// element slots in their fixed list order (double accumulation, one rounding to Scalar) and
+// merges transient entries that overlap the pattern; the rest become the transient part.
+// Solve: the filter, rhs and warm start are permuted into RCM order and the pre-filtered PCG
+// (pcg.h) runs with the BCRS SpMV (bcrs.h).
+#pragma once
+
+#include <Eigen/SparseCore>
+
+#include "weft/linear_system/bcrs.h"
+#include "weft/forces/force_elements.h"
+#include "weft/linear_system/linear_system_path.h"
+#include "weft/linear_system/rcm.h"
+
+namespace weft {
+
+constexpr int kParallelSolveRows = 8192;  // smaller systems solve on one thread
+
+template <class Scalar>
+class FastLinearSystem final : public LinearSystemPath {
+ public:
+  FastLinearSystem(const ClothMesh& mesh, const ForceModel& model, const LinearSystemOptions& options,
+                   int pinned_vertices);
+
+  void build(const Positions& x, const Positions& v, double time, double h) override;
+  PcgStats solve(const ConstraintFilter& filter, VectorX& dv) override;
+  TransientElements* transient() override { return &transient_; }
+  LinearSystemInfo info() const override;
+
+  const BcrsMatrix<Scalar>& matrix() const { return matrix_; }
+  const std::vector<int>& order() const { return order_; }          // order[row] = vertex
+  const std::vector<int>& new_of_old() const { return new_of_old_; }
+  const VectorX& rhs() const { return rhs_; }                        // in row order
+  const std::vector<Mat3>& diagonal_blocks() const { return diagonal_; }
+  // The last built system in the original vertex order, values as stored, in double.
+  Eigen::SparseMatrix<double, Eigen::RowMajor> to_sparse_original() const;
+  VectorX rhs_original() const;
+  // Solves the last built system from `dv` (original order) with pcg settings `pcg`.
+  PcgStats solve_with(const ConstraintFilter& filter, VectorX& dv, const PcgSettings& pcg);
+
+ private:
+  const ClothMesh& mesh_;
+  const ForceModel& model_;
+  LinearSystemOptions options_;
+  ForceElementLayout layout_;
+  ForceElementStorage<Scalar> storage_;
+  std::vector<int> order_, new_of_old_;
+  int bandwidth_natural_ = 0;
+  BcrsMatrix<Scalar> matrix_;
+  std::vector<int> diagonal_index_;                // block index of each row's diagonal
+  std::vector<int> block_source_start_;            // per fixed block: range into block_source_
+  std::vector<std::uint32_t> block_source_;        // (element slot << 1) | transposed
+  std::vector<int> rhs_source_start_;              // per row: range into rhs_source_
+  std::vector<std::uint32_t> rhs_source_;          // element * 4 + local vertex
+  std::vector<double> row_mass_;
+  TransientElements transient_;
+  TransientRows transient_rows_;
+  VectorX rhs_;
+  std::vector<Mat3> diagonal_;
+  ConstraintFilter permuted_filter_;
+  VectorX permuted_dv_;
+};
+
+}  // namespace weft

@@ -1,0 +1,57 @@
+// The implicit step's linear system, selectable at run time:
+//   fast       fixed force elements, fixed-pattern RCM-ordered BCRS (float32 or float64 values)
+//              gathered lock-free, transient elements, parallel pre-filtered PCG (block Jacobi);
+//   reference  per-element assembly into an Eigen sparse matrix (double, row locks), Eigen's
+//              ConjugateGradient on the explicitly pre-filtered system.
+// Both solve (M + h D + h^2 K) dv = h (f - h K v) with the pins of a ConstraintFilter exact.
+#pragma once
+
+#include <memory>
+#include <string>
+
+#include "weft/forces/forces.h"
+#include "weft/linear_system/pcg.h"
+#include "weft/linear_system/transient.h"
+
+namespace weft {
+
+enum class LinearSystemKind { kFast, kReference };
+enum class MatrixPrecision { kFloat32, kFloat64 };
+
+struct LinearSystemOptions {
+  LinearSystemKind kind = LinearSystemKind::kFast;
+  MatrixPrecision precision = MatrixPrecision::kFloat32;
+  int threads = 1;
+  PcgSettings pcg;
+};
+
+// What the path built; for reports and benchmarks.
+struct LinearSystemInfo {
+  std::string path;                     // "fast" or "reference"
+  std::string precision;                // "float32" or "float64"
+  long long force_elements = 0;         // elements the path computes
+  long long per_force_elements = 0;     // one element per force, for comparison
+  int bandwidth_natural = 0;            // block bandwidth in the input vertex order
+  int bandwidth = 0;                    // block bandwidth as solved (after RCM for fast)
+  bool narrow_columns = false;          // 16-bit column offsets in use (fast)
+  long long blocks = 0;                 // 3x3 blocks of the fixed pattern
+  long long transient_blocks = 0;       // outside the fixed pattern, last step
+  double bytes_per_multiply = 0.0;      // SpMV memory traffic (fast)
+};
+
+class LinearSystemPath {
+ public:
+  virtual ~LinearSystemPath() = default;
+  // Forces, Jacobians and the system for state (x, v) at `time`, step h.
+  virtual void build(const Positions& x, const Positions& v, double time, double h) = 0;
+  // dv: warm start on entry, solution on exit.
+  virtual PcgStats solve(const ConstraintFilter& filter, VectorX& dv) = 0;
+  // Transient elements of the coming build() (cleared by the caller); null when unsupported.
+  virtual TransientElements* transient() { return nullptr; }
+  virtual LinearSystemInfo info() const = 0;
+};
+
+std::unique_ptr<LinearSystemPath> make_linear_system(const ClothMesh& mesh, const ForceModel& model,
+                                                     const LinearSystemOptions& options, int pinned_vertices);
+
+}  // namespace weft
