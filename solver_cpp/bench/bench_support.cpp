@@ -1,19 +1,16 @@
 #include "bench_support.h"
 
 #include <algorithm>
-#include <chrono>
 #include <memory>
 #include <stdexcept>
 
+#include "weft/common/timer.h"
 #include "weft/linear_system/fast_linear_system.h"
 #include "weft/linear_system/linear_system.h"
 
 namespace weft {
 
 namespace {
-using Clock = std::chrono::steady_clock;
-double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
-
 double median(std::vector<double> v) {
   std::sort(v.begin(), v.end());
   return v[v.size() / 2];
@@ -38,13 +35,13 @@ double stream_triad_bandwidth(long long n, int repeats, int threads) {
   const double s = 3.0;
   double best = 1e300;
   for (int k = 0; k < repeats; ++k) {
-    const auto t = Clock::now();
+    const Timer t;
     double* pa = a.get();
     const double* pb = b.get();
     const double* pc = c.get();
 #pragma omp parallel for schedule(static) num_threads(threads)
     for (long long i = 0; i < n; ++i) pa[i] = pb[i] + s * pc[i];
-    best = std::min(best, since(t));
+    best = std::min(best, t.seconds());
   }
   if (a[n / 2] != 7.0) throw std::runtime_error("triad check failed");
   return 24.0 * static_cast<double>(n) / best;
@@ -57,9 +54,9 @@ SpmvTiming time_spmv(LinearSystemPath& path, int repeats, int threads) {
     m.multiply(x.data(), y.data(), threads);  // warm
     std::vector<double> times;
     for (int k = 0; k < repeats; ++k) {
-      const auto t = Clock::now();
+      const Timer t;
       m.multiply(x.data(), y.data(), threads);
-      times.push_back(since(t));
+      times.push_back(t.seconds());
     }
     return SpmvTiming{median(times), m.bytes_per_multiply()};
   });
@@ -71,9 +68,9 @@ SolveComparison compare_with_eigen_cg(LinearSystemPath& path, const ConstraintFi
     SolveComparison out;
     const int n = static_cast<int>(fast.order().size());
     VectorX dv = VectorX::Zero(3 * n);
-    auto t = Clock::now();
+    const Timer t;
     const PcgStats fs = fast.solve_with(filter, dv, PcgSettings{tolerance, max_iterations});
-    out.fast_seconds = since(t);
+    out.fast_seconds = t.seconds();
     out.fast_iterations = fs.iterations;
     out.fast_residual = fs.relative_residual;
     const SparseMatrix a = fast.to_sparse_original();

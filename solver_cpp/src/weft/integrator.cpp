@@ -1,17 +1,14 @@
 #include "weft/integrator.h"
 
-#include <chrono>
 #include <cmath>
 #include <string>
+
+#include "weft/common/timer.h"
+#include "weft/linear_system/make_linear_system.h"
 
 namespace weft {
 
 namespace {
-using Clock = std::chrono::steady_clock;
-double seconds_since(Clock::time_point start) {
-  return std::chrono::duration<double>(Clock::now() - start).count();
-}
-
 std::vector<double> to_std(const VectorX& v) { return {v.data(), v.data() + v.size()}; }
 
 void require_rows(const VectorX& v, Eigen::Index n, const char* name) {
@@ -129,23 +126,23 @@ void Simulation::build_filter(double h, double alpha_end) {
 
 Simulation::StepTimings Simulation::step(double time, double h, double alpha_end) {
   StepTimings t;
-  const auto build_start = Clock::now();
+  const Timer build_timer;
   linear_->build(x_, v_, time, h);
   build_filter(h, alpha_end);
-  t.build = seconds_since(build_start);
+  t.build = build_timer.seconds();
   if (collisions_)  // cloth/body contacts as prescribed normal velocities in the filtered solve
     collisions_->constrain_contacts(x_, v_, h, bodies_, step_alpha_start_, alpha_end, filter_);
 
-  const auto solve_start = Clock::now();
+  const Timer solve_timer;
   const PcgStats stats = linear_->solve(filter_, dv_);
   flat(v_) += dv_;
   if (collisions_) {  // collision stage: makes x + h v collision-free
-    const auto collision_start = Clock::now();
+    const Timer collision_timer;
     collisions_->respond(x_, v_, h, bodies_, step_alpha_start_, alpha_end);
-    t.collision = seconds_since(collision_start);
+    t.collision = collision_timer.seconds();
   }
   flat(x_) += h * flat(v_);
-  t.solve = seconds_since(solve_start) - t.collision;
+  t.solve = solve_timer.seconds() - t.collision;
   t.iterations = stats.iterations;
   t.residual = stats.relative_residual;
   t.converged = stats.converged;
@@ -160,7 +157,7 @@ FrameTelemetry Simulation::advance_frame(double frame_start_time, double frame_d
   if (substeps < 1) throw std::invalid_argument("substeps must be at least 1");
   if (!(frame_duration > 0.0)) throw std::invalid_argument("frame duration must be positive");
   FrameTelemetry telemetry;
-  const auto frame_start = Clock::now();
+  const Timer frame_timer;
   const double h = frame_duration / substeps;
   if (collisions_) collisions_->begin_frame();
   for (int s = 0; s < substeps; ++s) {
@@ -181,7 +178,7 @@ FrameTelemetry Simulation::advance_frame(double frame_start_time, double frame_d
   const Energies e = energies();
   telemetry.kinetic_energy = e.kinetic;
   telemetry.potential_energy = e.gravity + e.elastic;
-  telemetry.total_seconds = seconds_since(frame_start);
+  telemetry.total_seconds = frame_timer.seconds();
   return telemetry;
 }
 

@@ -5,6 +5,7 @@
 #pragma once
 
 #include "weft/bodies/bodies.h"
+#include "weft/geometry/closest_points.h"
 #include "weft/linear_system/pcg.h"
 
 namespace weft {
@@ -26,9 +27,6 @@ struct PinSet {
   std::vector<FixedPin> fixed;
   std::vector<BodyPin> attached;
 };
-
-// Closest point on triangle (a, b, c) to p, as barycentric coordinates.
-Vec3 closest_point_barycentric(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c);
 
 // Attach a vertex at position x to the closest point of a body (positions as given).
 BodyPin attach_to_body(int vertex, const Vec3& x, int body_index, const Faces& faces, const Positions& positions);

@@ -1,6 +1,7 @@
-// Broad phase: an axis-aligned bounding-box tree over triangles, built once from the
-// connectivity's initial shape (median splits) and refitted every step, so its cost is linear
-// in the number of triangles and nothing is built for features a scene has switched off.
+// The one bounding volume hierarchy: an axis-aligned bounding-box tree over triangles (median
+// splits, one triangle per leaf). The collision broad phase builds it once from the
+// connectivity's initial shape and refits it every step, so its cost is linear in the number of
+// triangles; intersection counting and GIA build one per configuration.
 #pragma once
 
 #include <limits>
@@ -28,6 +29,7 @@ struct Aabb {
   bool overlaps(const Aabb& b) const {
     return (lo.array() <= b.hi.array()).all() && (b.lo.array() <= hi.array()).all();
   }
+  bool contains(const Vec3& p) const { return (lo.array() <= p.array()).all() && (p.array() <= hi.array()).all(); }
 };
 
 // Boxes of triangles spanning two configurations (start and end of a step), widened by a
@@ -47,6 +49,26 @@ class AabbTree {
   void self_pairs(std::vector<std::pair<int, int>>& out) const;
   // Every pair (i of this tree, j of other) whose boxes overlap.
   void pairs(const AabbTree& other, std::vector<std::pair<int, int>>& out) const;
+  // Box of all leaves (the tree must not be empty).
+  const Aabb& bounds() const { return nodes_[0].box; }
+  // visit(leaf) for every leaf whose box overlaps `box` (closed boxes).
+  template <class Visit>
+  void query(const Aabb& box, Visit&& visit) const {
+    if (nodes_.empty()) return;
+    int stack[64];  // depth of a median-split tree over < 2^62 leaves
+    int top = 0;
+    stack[top++] = 0;
+    while (top > 0) {
+      const Node& node = nodes_[stack[--top]];
+      if (!node.box.overlaps(box)) continue;
+      if (node.leaf >= 0) {
+        visit(node.leaf);
+      } else {
+        stack[top++] = node.left;
+        stack[top++] = node.right;
+      }
+    }
+  }
 
  private:
   struct Node {

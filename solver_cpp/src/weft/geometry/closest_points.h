@@ -17,6 +17,9 @@ struct FeatureOwnership {
 // Vertex -> the first face using it; edge -> the first face containing it.
 FeatureOwnership assign_features(const Faces& faces, int vertex_count);
 
+// Closest point on triangle (a, b, c) to p, as barycentric coordinates.
+Vec3 closest_point_barycentric(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c);
+
 // Closest point of triangle (a, b, c) to p: returns the distance, bary gets its barycentric
 // coordinates (weights of a, b, c).
 double point_triangle_distance(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c, Vec3& bary);

@@ -4,23 +4,12 @@
 #include <cmath>
 #include <numeric>
 
+#include "weft/common/union_find.h"
 #include "weft/gia/gia_regions.h"
 #include "weft/gia/intersection_analysis.h"
 #include "weft/geometry/closest_points.h"
 
 namespace weft {
-
-namespace {
-int find_root(std::vector<int>& parent, int i) {
-  while (parent[i] != i) i = parent[i] = parent[parent[i]];
-  return i;
-}
-void unite(std::vector<int>& parent, int a, int b) {
-  a = find_root(parent, a);
-  b = find_root(parent, b);
-  if (a != b) parent[std::max(a, b)] = std::min(a, b);
-}
-}  // namespace
 
 ClothUntangling::ClothUntangling(const Faces& cloth_faces, const std::vector<char>& face_self, int vertex_count)
     : cloth_faces_(cloth_faces), vertex_count_(vertex_count) {
@@ -30,10 +19,10 @@ ClothUntangling::ClothUntangling(const Faces& cloth_faces, const std::vector<cha
   faces_.resize(static_cast<Eigen::Index>(face_id_.size()), 3);
   for (size_t k = 0; k < face_id_.size(); ++k) faces_.row(static_cast<Eigen::Index>(k)) = cloth_faces.row(face_id_[k]);
   topo_ = build_gia_topology(vertex_count_, faces_);
+  UnionFind components(vertex_count_);
+  for (int e = 0; e < topo_.edges.rows(); ++e) components.unite(topo_.edges(e, 0), topo_.edges(e, 1));
   component_.resize(vertex_count_);
-  std::iota(component_.begin(), component_.end(), 0);
-  for (int e = 0; e < topo_.edges.rows(); ++e) unite(component_, topo_.edges(e, 0), topo_.edges(e, 1));
-  for (int v = 0; v < vertex_count_; ++v) component_[v] = find_root(component_, v);
+  for (int v = 0; v < vertex_count_; ++v) component_[v] = components.find(v);
   colour_.assign(vertex_count_, 0);
   tangled_vertex_.assign(vertex_count_, 0);
   tangled_face_.assign(face_count, 0);
@@ -118,19 +107,19 @@ double ClothUntangling::analyse(const Positions& x, int threads) {
   }
   // Tangled faces and their patches (connected through shared vertices), labelled by the
   // patch's lowest vertex.
-  for (int v = 0; v < vertex_count_; ++v) patch_[v] = v;
+  UnionFind patches(vertex_count_);
   for (int f = 0; f < static_cast<int>(cloth_faces_.rows()); ++f) {
     for (int c = 0; c < 3; ++c) tangled_face_[f] = tangled_face_[f] || tangled_vertex_[cloth_faces_(f, c)];
     if (tangled_face_[f]) {
-      unite(patch_, cloth_faces_(f, 0), cloth_faces_(f, 1));
-      unite(patch_, cloth_faces_(f, 0), cloth_faces_(f, 2));
+      patches.unite(cloth_faces_(f, 0), cloth_faces_(f, 1));
+      patches.unite(cloth_faces_(f, 0), cloth_faces_(f, 2));
     }
   }
   std::vector<char> in_patch(vertex_count_, 0);
   for (int f = 0; f < static_cast<int>(cloth_faces_.rows()); ++f)
     if (tangled_face_[f])
       for (int c = 0; c < 3; ++c) in_patch[cloth_faces_(f, c)] = 1;
-  for (int v = 0; v < vertex_count_; ++v) patch_[v] = in_patch[v] ? find_root(patch_, v) : -1;
+  for (int v = 0; v < vertex_count_; ++v) patch_[v] = in_patch[v] ? patches.find(v) : -1;
   for (const GiaHit& h : r.hits) {
     const int a = topo_.edges(h.edge, 0), b = topo_.edges(h.edge, 1);
     if (colour_[a] == colour_[b]) continue;  // no coloured side to pull back (e.g. a slit's edges)

@@ -1,10 +1,10 @@
-// Region building blocks of GIA's colouring, shared by intersection_analysis.cpp (per-path and
+// Region building blocks of GIA's colouring (gia_regions.cpp), shared by intersection_analysis.cpp (per-path and
 // parity colourings) and cloth_untangling.cpp (per-component colouring in the step).
 #pragma once
 
 #include <vector>
 
-#include "weft/gia/intersection_analysis.h"
+#include "weft/gia/gia_result.h"
 
 namespace weft {
 

@@ -1,7 +1,6 @@
 #include "weft/gia/intersection_analysis.h"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <string>
 #include <unordered_map>
@@ -9,14 +8,14 @@
 
 #include <omp.h>
 
+#include "weft/common/timer.h"
+#include "weft/geometry/aabb_tree.h"
 #include "weft/geometry/exact_predicates.h"
 #include "weft/gia/gia_regions.h"
 #include "weft/mesh/mesh.h"
 
 namespace weft {
 namespace {
-
-using Box = Eigen::AlignedBox3d;
 
 // ---------------------------------------------------------------------------------------------
 // Input checks and topology
@@ -26,114 +25,22 @@ void check_positions(const Positions& x, const char* name) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Bounding volume hierarchy over triangles (median split on the longest axis, 4 per leaf).
+// Triangle boxes in an AABB tree (aabb_tree.h).
 
-struct Bvh {
-  struct Node {
-    Box box;
-    int left = -1, right = -1;  // children (internal nodes)
-    int begin = 0, end = 0;     // range in `order` (leaves)
-    bool leaf() const { return left < 0; }
-  };
-  std::vector<Node> nodes;
-  std::vector<int> order;
-  std::vector<Box> tri_box;
-};
-
-Box triangle_box(const Positions& x, const Faces& f, int t) {
-  Box b(row3(x, f(t, 0)));
-  b.extend(row3(x, f(t, 1)));
-  b.extend(row3(x, f(t, 2)));
-  return b;
-}
-
-Bvh build_bvh(const Positions& x, const Faces& f) {
-  constexpr int kLeafSize = 4;
-  Bvh bvh;
-  const int n = static_cast<int>(f.rows());
-  bvh.tri_box.resize(n);
-  std::vector<Vec3> centre(n);
-  for (int t = 0; t < n; ++t) {
-    bvh.tri_box[t] = triangle_box(x, f, t);
-    centre[t] = bvh.tri_box[t].center();
-  }
-  bvh.order.resize(n);
-  for (int t = 0; t < n; ++t) bvh.order[t] = t;
-  if (n == 0) return bvh;
-  bvh.nodes.reserve(2 * (n / kLeafSize + 1));
-  bvh.nodes.push_back({});
-  bvh.nodes[0].begin = 0;
-  bvh.nodes[0].end = n;
-  std::vector<int> stack = {0};
-  while (!stack.empty()) {
-    const int id = stack.back();
-    stack.pop_back();
-    const int begin = bvh.nodes[id].begin, end = bvh.nodes[id].end;
-    Box box;
-    for (int i = begin; i < end; ++i) box.extend(bvh.tri_box[bvh.order[i]]);
-    bvh.nodes[id].box = box;
-    if (end - begin <= kLeafSize) continue;
-    int axis;
-    box.sizes().maxCoeff(&axis);
-    const int mid = (begin + end) / 2;
-    std::nth_element(bvh.order.begin() + begin, bvh.order.begin() + mid, bvh.order.begin() + end,
-                     [&](int a, int b) { return centre[a][axis] < centre[b][axis]; });
-    const int left = static_cast<int>(bvh.nodes.size());
-    bvh.nodes.push_back({});
-    bvh.nodes.push_back({});
-    bvh.nodes[left].begin = begin;
-    bvh.nodes[left].end = mid;
-    bvh.nodes[left + 1].begin = mid;
-    bvh.nodes[left + 1].end = end;
-    bvh.nodes[id].left = left;
-    bvh.nodes[id].right = left + 1;
-    stack.push_back(left + 1);
-    stack.push_back(left);
-  }
-  return bvh;
+AabbTree build_tree(const Positions& x, const Faces& f) {
+  std::vector<Aabb> boxes;
+  triangle_boxes(f, x, x, {}, boxes);
+  AabbTree tree;
+  tree.build(boxes);
+  return tree;
 }
 
 // Triangle pairs whose boxes overlap (closed boxes: touching counts, so exact contact is never
-// missed). Self mode (a == b) lists each unordered pair once.
-std::vector<std::pair<int, int>> overlapping_pairs(const Bvh& a, const Bvh& b, bool self) {
+// missed). Self mode (a == b) lists each unordered pair once, (lower, higher).
+std::vector<std::pair<int, int>> overlapping_pairs(const AabbTree& a, const AabbTree& b, bool self) {
   std::vector<std::pair<int, int>> pairs;
-  if (a.nodes.empty() || b.nodes.empty()) return pairs;
-  std::vector<std::pair<int, int>> stack = {{0, 0}};
-  while (!stack.empty()) {
-    const auto [i, j] = stack.back();
-    stack.pop_back();
-    const Bvh::Node& na = a.nodes[i];
-    const Bvh::Node& nb = b.nodes[j];
-    if (!na.box.intersects(nb.box)) continue;
-    if (self && i == j) {
-      if (na.leaf()) {
-        for (int p = na.begin; p < na.end; ++p)
-          for (int q = p + 1; q < na.end; ++q) {
-            const int s = a.order[p], t = a.order[q];
-            if (a.tri_box[s].intersects(a.tri_box[t])) pairs.emplace_back(std::min(s, t), std::max(s, t));
-          }
-      } else {
-        stack.push_back({na.left, na.left});
-        stack.push_back({na.right, na.right});
-        stack.push_back({na.left, na.right});
-      }
-      continue;
-    }
-    if (na.leaf() && nb.leaf()) {
-      for (int p = na.begin; p < na.end; ++p)
-        for (int q = nb.begin; q < nb.end; ++q) {
-          const int s = a.order[p], t = b.order[q];
-          if (!a.tri_box[s].intersects(b.tri_box[t])) continue;
-          pairs.emplace_back(self ? std::min(s, t) : s, self ? std::max(s, t) : t);
-        }
-    } else if (nb.leaf() || (!na.leaf() && na.box.volume() >= nb.box.volume())) {
-      stack.push_back({na.left, j});
-      stack.push_back({na.right, j});
-    } else {
-      stack.push_back({i, nb.left});
-      stack.push_back({i, nb.right});
-    }
-  }
+  if (self) a.self_pairs(pairs);
+  else a.pairs(b, pairs);
   std::sort(pairs.begin(), pairs.end());  // deterministic order, independent of traversal
   return pairs;
 }
@@ -452,12 +359,12 @@ void colour_mesh(GiaResult& r, int m, const Positions& x, const Faces& f, const 
 // Ray parity: segment from each point (key point_key_offset + i) along +x to a point beyond the
 // mesh's box (key far_key), counted against the mesh's triangles with the perturbed predicate.
 std::vector<std::int8_t> inside_by_parity(const Positions& points, std::int64_t point_key_offset, const MeshRef& mesh,
-                                          const Bvh& bvh, std::int64_t far_key, int threads) {
+                                          const AabbTree& tree, std::int64_t far_key, int threads) {
   const int n = static_cast<int>(points.rows());
   std::vector<std::int8_t> inside(n, 0);
-  if (bvh.nodes.empty()) return inside;
-  const Box& root = bvh.nodes[0].box;
-  const double far_x = root.max().x() + 1.0 + std::fabs(root.max().x());
+  if (tree.empty()) return inside;
+  const Aabb& root = tree.bounds();
+  const double far_x = root.hi.x() + 1.0 + std::fabs(root.hi.x());
   const Faces& f = *mesh.f;
 #pragma omp parallel for schedule(dynamic, 256) num_threads(threads > 0 ? threads : omp_get_max_threads())
   for (int i = 0; i < n; ++i) {
@@ -466,41 +373,27 @@ std::vector<std::int8_t> inside_by_parity(const Positions& points, std::int64_t 
     const double far[3] = {far_x, p.y(), p.z()};
     const KeyedPoint kp{points.data() + 3 * static_cast<std::ptrdiff_t>(i), point_key_offset + i};
     const KeyedPoint kq{far, far_key};
-    Box seg(p);
-    seg.extend(Vec3(far_x, p.y(), p.z()));
-    int crossings = 0;
-    std::vector<int> stack = {0};
-    while (!stack.empty()) {
-      const Bvh::Node& node = bvh.nodes[stack.back()];
-      stack.pop_back();
-      if (!node.box.intersects(seg)) continue;
-      if (!node.leaf()) {
-        stack.push_back(node.left);
-        stack.push_back(node.right);
-        continue;
-      }
-      for (int k = node.begin; k < node.end; ++k) {
-        const int t = bvh.order[k];
-        if (!bvh.tri_box[t].intersects(seg)) continue;
-        crossings += segment_crosses_triangle(kp, kq, mesh.point(f(t, 0)), mesh.point(f(t, 1)), mesh.point(f(t, 2)));
-      }
-    }
+    Aabb seg;
+    seg.expand(p);
+    seg.expand(Vec3(far_x, p.y(), p.z()));
+    int crossings = 0;  // a sum: the visiting order does not matter
+    tree.query(seg, [&](int t) {
+      crossings += segment_crosses_triangle(kp, kq, mesh.point(f(t, 0)), mesh.point(f(t, 1)), mesh.point(f(t, 2)));
+    });
     inside[i] = crossings % 2;
   }
   return inside;
 }
 
-std::array<int, 2> ordered(int a, int b) { return {std::min(a, b), std::max(a, b)}; }
-
 // Shared driver: mesh 0 against mesh 1 (self: mesh 1 is mesh 0).
 GiaResult analyse(const std::array<MeshRef, 2>& mesh, bool self, const GiaOptions& options) {
-  const auto start = std::chrono::steady_clock::now();
+  const Timer timer;
   const int threads = options.threads > 0 ? options.threads : omp_get_max_threads();
   GiaResult r;
   r.self = self;
-  const Bvh bvh0 = build_bvh(*mesh[0].x, *mesh[0].f);
-  const Bvh bvh1 = self ? Bvh() : build_bvh(*mesh[1].x, *mesh[1].f);
-  const std::vector<std::pair<int, int>> pairs = overlapping_pairs(bvh0, self ? bvh0 : bvh1, self);
+  const AabbTree tree0 = build_tree(*mesh[0].x, *mesh[0].f);
+  const AabbTree tree1 = self ? AabbTree() : build_tree(*mesh[1].x, *mesh[1].f);
+  const std::vector<std::pair<int, int>> pairs = overlapping_pairs(tree0, tree1, self);
   r.candidate_pairs = static_cast<long long>(pairs.size());
 
   // Narrow phase in parallel; each pair writes its own slot.
@@ -596,99 +489,14 @@ GiaResult analyse(const std::array<MeshRef, 2>& mesh, bool self, const GiaOption
       const MeshRef& other = mesh[1 - m];
       if (!other.topo->closed) continue;
       r.mesh[m].inside_other =
-          inside_by_parity(*mesh[m].x, mesh[m].key_offset, other, m == 0 ? bvh1 : bvh0, far_key, threads);
+          inside_by_parity(*mesh[m].x, mesh[m].key_offset, other, m == 0 ? tree1 : tree0, far_key, threads);
     }
   }
-  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  r.seconds = timer.seconds();
   return r;
 }
 
 }  // namespace
-
-std::vector<double> lumped_vertex_area(const Positions& x, const Faces& f) {
-  std::vector<double> area(x.rows(), 0.0);
-  for (int t = 0; t < f.rows(); ++t) {
-    const Vec3 a = row3(x, f(t, 0)), b = row3(x, f(t, 1)), c = row3(x, f(t, 2));
-    const double third = (b - a).cross(c - a).norm() / 6.0;
-    for (int k = 0; k < 3; ++k) area[f(t, k)] += third;
-  }
-  return area;
-}
-
-std::vector<int> odd_crossed_edges(const GiaResult& r, const std::vector<int>& hits, int m) {
-  std::vector<int> crossed;
-  for (int h : hits)
-    if (r.hits[h].edge_mesh == m) crossed.push_back(r.hits[h].edge);
-  std::sort(crossed.begin(), crossed.end());
-  std::vector<int> walls;
-  for (size_t i = 0; i < crossed.size();) {
-    size_t j = i;
-    while (j < crossed.size() && crossed[j] == crossed[i]) ++j;
-    if ((j - i) % 2 == 1) walls.push_back(crossed[i]);
-    i = j;
-  }
-  return walls;
-}
-
-GiaTopology build_gia_topology(int vertex_count, const Faces& faces) {
-  GiaTopology topo;
-  const int nf = static_cast<int>(faces.rows());
-  // (v0, v1, face, local edge) with v0 < v1, sorted to number edges.
-  std::vector<std::array<int, 4>> half(3 * static_cast<size_t>(nf));
-  for (int t = 0; t < nf; ++t) {
-    for (int k = 0; k < 3; ++k) {
-      const int v = faces(t, k);
-      if (v < 0 || v >= vertex_count)
-        throw MeshError("face " + std::to_string(t) + " has vertex index " + std::to_string(v) + " outside [0, " +
-                        std::to_string(vertex_count) + ")");
-    }
-    if (faces(t, 0) == faces(t, 1) || faces(t, 1) == faces(t, 2) || faces(t, 0) == faces(t, 2))
-      throw MeshError("face " + std::to_string(t) + " repeats a vertex");
-    for (int k = 0; k < 3; ++k) {
-      const auto e = ordered(faces(t, k), faces(t, (k + 1) % 3));
-      half[3 * t + k] = {e[0], e[1], t, k};
-    }
-  }
-  std::sort(half.begin(), half.end());
-  topo.face_edges.resize(nf);
-  std::vector<std::array<int, 2>> edges;
-  topo.edge_face_offset.push_back(0);
-  for (size_t i = 0; i < half.size();) {
-    size_t j = i;
-    const int id = static_cast<int>(edges.size());
-    edges.push_back({half[i][0], half[i][1]});
-    for (; j < half.size() && half[j][0] == half[i][0] && half[j][1] == half[i][1]; ++j) {
-      topo.face_edges[half[j][2]][half[j][3]] = id;
-      topo.edge_faces.push_back(half[j][2]);
-    }
-    topo.edge_face_offset.push_back(static_cast<int>(topo.edge_faces.size()));
-    const int count = static_cast<int>(j - i);
-    topo.boundary_edge_count += count == 1;
-    topo.nonmanifold_edge_count += count > 2;
-    i = j;
-  }
-  const int ne = static_cast<int>(edges.size());
-  topo.edges.resize(ne, 2);
-  for (int e = 0; e < ne; ++e) topo.edges.row(e) << edges[e][0], edges[e][1];
-  topo.closed = nf > 0 && topo.boundary_edge_count == 0 && topo.nonmanifold_edge_count == 0;
-  // Vertex adjacency through edges.
-  topo.vertex_offset.assign(vertex_count + 1, 0);
-  for (const auto& e : edges) {
-    ++topo.vertex_offset[e[0] + 1];
-    ++topo.vertex_offset[e[1] + 1];
-  }
-  for (int v = 0; v < vertex_count; ++v) topo.vertex_offset[v + 1] += topo.vertex_offset[v];
-  topo.vertex_neighbour.resize(topo.vertex_offset.back());
-  topo.vertex_edge.resize(topo.vertex_offset.back());
-  std::vector<int> fill(topo.vertex_offset.begin(), topo.vertex_offset.end() - 1);
-  for (int e = 0; e < ne; ++e)
-    for (int side = 0; side < 2; ++side) {
-      const int v = edges[e][side];
-      topo.vertex_neighbour[fill[v]] = edges[e][1 - side];
-      topo.vertex_edge[fill[v]++] = e;
-    }
-  return topo;
-}
 
 GiaResult analyse_intersections(const Positions& xa, const Faces& fa, const Positions& xb, const Faces& fb,
                                 const GiaOptions& options) {
@@ -713,10 +521,10 @@ std::vector<std::int8_t> points_inside_closed_mesh(const Positions& points, cons
   check_positions(x, "mesh");
   const GiaTopology topo = build_gia_topology(static_cast<int>(x.rows()), f);
   if (!topo.closed) throw MeshError("points_inside_closed_mesh: the mesh is not closed (watertight, manifold)");
-  const Bvh bvh = build_bvh(x, f);
+  const AabbTree tree = build_tree(x, f);
   const std::int64_t offset = points.rows();
   const MeshRef mesh{&x, &f, &topo, offset};
-  return inside_by_parity(points, 0, mesh, bvh, offset + x.rows(), threads);
+  return inside_by_parity(points, 0, mesh, tree, offset + x.rows(), threads);
 }
 
 }  // namespace weft

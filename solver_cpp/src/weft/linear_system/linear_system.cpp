@@ -2,8 +2,8 @@
 
 #include <Eigen/IterativeLinearSolvers>
 #include <algorithm>
-#include <chrono>
 
+#include "weft/common/timer.h"
 #include "weft/linear_system/rcm.h"
 
 namespace weft {
@@ -150,7 +150,7 @@ PcgStats eigen_cg_prefiltered(const SparseMatrix& a, const VectorX& b, const Con
   VectorX rhs;
   form_prefiltered(a, b, filter, filtered, rhs);
   Eigen::setNbThreads(threads);
-  const auto start = std::chrono::steady_clock::now();
+  const Timer timer;
   Eigen::ConjugateGradient<SparseMatrix, Eigen::Lower | Eigen::Upper> cg;
   cg.setTolerance(settings.tolerance);
   cg.setMaxIterations(settings.max_iterations);
@@ -158,7 +158,7 @@ PcgStats eigen_cg_prefiltered(const SparseMatrix& a, const VectorX& b, const Con
   VectorX guess = dv;
   filter.apply(guess);
   const VectorX y = cg.solveWithGuess(rhs, guess);
-  if (cg_seconds) *cg_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  if (cg_seconds) *cg_seconds = timer.seconds();
   PcgStats stats;
   stats.iterations = static_cast<int>(cg.iterations());
   stats.relative_residual = cg.error();

@@ -4,6 +4,7 @@
 //   reference  per-element assembly into an Eigen sparse matrix (double, row locks), Eigen's
 //              ConjugateGradient on the explicitly pre-filtered system.
 // Both solve (M + h D + h^2 K) dv = h (f - h K v) with the pins of a ConstraintFilter exact.
+// This header is the interface only; make_linear_system.h picks an implementation.
 #pragma once
 
 #include <memory>
@@ -50,8 +51,5 @@ class LinearSystemPath {
   virtual TransientElements* transient() { return nullptr; }
   virtual LinearSystemInfo info() const = 0;
 };
-
-std::unique_ptr<LinearSystemPath> make_linear_system(const ClothMesh& mesh, const ForceModel& model,
-                                                     const LinearSystemOptions& options, int pinned_vertices);
 
 }  // namespace weft

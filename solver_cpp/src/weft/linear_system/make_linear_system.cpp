@@ -1,4 +1,4 @@
-#include "weft/linear_system/linear_system_path.h"
+#include "weft/linear_system/make_linear_system.h"
 
 #include "weft/linear_system/fast_linear_system.h"
 #include "weft/linear_system/linear_system.h"
