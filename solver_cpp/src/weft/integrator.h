@@ -7,7 +7,7 @@
 #include <memory>
 #include <stdexcept>
 
-#include "weft/collision/collision_response.h"
+#include "weft/collision_system.h"
 #include "weft/bodies/constraints.h"
 #include "weft/forces/forces.h"
 #include "weft/linear_system/linear_system.h"

@@ -1,0 +1,89 @@
+#include "weft/collision/ccd_response.h"
+
+#include <algorithm>
+
+#include "weft/collision/ccd.h"
+#include "weft/collision/contact_impulse.h"
+#include "weft/common/timer.h"
+
+namespace weft {
+
+int CcdResponse::pass(CollisionStep& step, const ContactProperties& props, bool apply, std::vector<int>* hits,
+                      bool incremental, CollisionTelemetry& frame) const {
+  Timer timer;
+  const int count = static_cast<int>(step.pairs.size());
+  std::vector<char> dirty(step.changed.size(), 0);
+  dirty.swap(step.changed);
+  std::vector<char> hit(count, 0);
+  std::vector<double> toi(count, 1.0);
+  auto run = [&](int k) {
+    const FeaturePair& pair = step.pairs[k];
+    if (!pair.ccd) return CcdResult{};
+    if (incremental && !std::any_of(pair.point.begin(), pair.point.end(), [&](int p) { return p >= 0 && dirty[p]; }))
+      return CcdResult{};
+    std::array<Vec3, 4> s, e;
+    for (int i = 0; i < 4; ++i) {
+      s[i] = step.start_of(pair.point[i], pair.body);
+      e[i] = step.end_of(pair.point[i], pair.body);
+    }
+    // Pairs whose points all move by the same displacement keep their shape: nothing new can
+    // happen (this is what makes rigid impact zones final).
+    const Vec3 d0 = e[0] - s[0];
+    double spread = 0.0;
+    for (int i = 1; i < 4; ++i) spread = std::max(spread, ((e[i] - s[i]) - d0).cwiseAbs().maxCoeff());
+    const double th = props.pair_thickness(pair);
+    if (spread <= 1e-9 * th) return CcdResult{};
+    CcdOptions options;
+    options.minimum_separation = kCcdSeparationFraction * th;
+    options.absolute_tolerance = 0.1 * options.minimum_separation;
+    options.max_boxes = 2000;
+    if (!boxes_within(s, e, pair.edge_edge, options.minimum_separation)) return CcdResult{};
+    return pair.edge_edge ? edge_edge_ccd(s, e, options) : vertex_triangle_ccd(s, e, options);
+  };
+#pragma omp parallel for schedule(dynamic, 64) num_threads(threads_)
+  for (int k = 0; k < count; ++k) {
+    const CcdResult r = run(k);
+    hit[k] = r.hit;
+    toi[k] = r.toi;
+  }
+  frame.ccd_candidates += count;
+  incremental = false;  // the serial pass re-tests hits with the velocities of the moment
+  frame.ccd_seconds += timer.seconds();
+  timer.restart();
+  int found = 0;
+  for (int k = 0; k < count; ++k) {
+    if (!hit[k]) continue;
+    const FeaturePair& pair = step.pairs[k];
+    double t = toi[k];
+    if (apply && found > 0) {  // earlier impulses of this pass may have changed the pair
+      const CcdResult r = run(k);
+      if (!r.hit) continue;
+      t = r.toi;
+    }
+    ++found;
+    if (hits) hits->push_back(k);
+    if (!apply) continue;
+    const double th = props.pair_thickness(pair);
+    std::array<Vec3, 4> s, x_toi;
+    for (int i = 0; i < 4; ++i) {
+      s[i] = step.start_of(pair.point[i], pair.body);
+      x_toi[i] = s[i] + t * (step.end_of(pair.point[i], pair.body) - s[i]);
+    }
+    std::array<double, 4> w;
+    const double d = pair_weights(x_toi, pair.edge_edge, w);
+    const Vec3 g0 = combine(s, w);
+    Vec3 v_rel = Vec3::Zero();
+    for (int i = 0; i < 4; ++i) v_rel += w[i] * step.velocity_of(pair.point[i], pair.body);
+    const Vec3 side = g0.squaredNorm() > 0.0 ? g0 : Vec3(-v_rel);
+    const Vec3 n = contact_normal(x_toi, pair.edge_edge, combine(x_toi, w), d, th, side);
+    const double vn = n.dot(v_rel);
+    double target = (kTargetSeparationFraction * th - n.dot(g0)) / step.h;
+    if (step.ccd_iteration >= 2) target = std::max(target, 0.0);  // plain inelastic after two passes
+    if (vn < target) apply_impulse(step, props, pair, w, n, target - vn, props.pair_friction(pair));
+  }
+  frame.ccd_hits += found;
+  frame.response_seconds += timer.seconds();
+  return found;
+}
+
+}  // namespace weft

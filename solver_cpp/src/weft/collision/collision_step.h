@@ -1,0 +1,63 @@
+// Per-step state of the collision stage (collision_system.h), shared by its parts and passed to
+// them explicitly: the start-of-step positions x, the velocities v being corrected (the step
+// moves x to x_end = x + h v), the collidable bodies' positions at the step's start and end,
+// and the feature pairs the detection found. ContactProperties are the cloth's per-vertex
+// contact data, fixed for a simulation.
+#pragma once
+
+#include <vector>
+
+#include "weft/collision/collision_types.h"
+#include "weft/common/types.h"
+
+namespace weft {
+
+constexpr double kDefaultThickness = 0.002;
+constexpr double kDefaultFriction = 0.3;
+
+struct ContactProperties {
+  std::vector<double> inverse_mass;         // per cloth vertex, 0 for pinned vertices
+  std::vector<double> thickness, friction;  // per cloth vertex: most over its faces
+  double default_thickness = kDefaultThickness;  // the largest vertex thickness
+
+  // Per-face thickness and friction (empty: defaults) spread to the vertices; throws
+  // std::invalid_argument for a thickness that is not positive.
+  static ContactProperties from_faces(const Faces& faces, const VectorX& face_thickness, const VectorX& face_friction,
+                                      const std::vector<double>& vertex_mass, const std::vector<int>& pinned_vertices);
+  double inverse_mass_of(int p) const { return p >= 0 ? inverse_mass[p] : 0.0; }
+  double pair_thickness(const FeaturePair& pair) const;
+  double pair_friction(const FeaturePair& pair) const;
+};
+
+struct CollisionStep {
+  const Positions* x = nullptr;
+  Positions* v = nullptr;
+  Positions x_end;
+  double h = 0.0;
+  std::vector<Positions> body_start, body_end;  // per body (empty for bodies that do not collide)
+  std::vector<FeaturePair> pairs;               // from ContactDetection::collect
+  std::vector<char> changed;  // cloth vertices whose velocity changed since the last CCD pass
+  int ccd_iteration = 0;      // CCD impulse pass within the step
+
+  void begin(const Positions& x0, Positions& v0, double step) {
+    x = &x0;
+    v = &v0;
+    h = step;
+    x_end = x0 + step * v0;
+    changed.assign(x0.rows(), 0);
+  }
+  void end() {
+    x = nullptr;
+    v = nullptr;
+  }
+  // After v.row(p) changed: its end position.
+  void moved(int p) { x_end.row(p) = x->row(p) + h * v->row(p); }
+  // Point p of a feature pair (cloth vertex p >= 0, else body vertex -(1 + p) of `body`).
+  Vec3 start_of(int p, int body) const { return p >= 0 ? row3(*x, p) : row3(body_start[body], -1 - p); }
+  Vec3 end_of(int p, int body) const { return p >= 0 ? row3(x_end, p) : row3(body_end[body], -1 - p); }
+  Vec3 velocity_of(int p, int body) const {
+    return p >= 0 ? row3(*v, p) : Vec3((row3(body_end[body], -1 - p) - row3(body_start[body], -1 - p)) / h);
+  }
+};
+
+}  // namespace weft

@@ -1,0 +1,73 @@
+// Settings, telemetry and feature pairs of the collision stage (collision_system.h).
+#pragma once
+
+#include <array>
+#include <vector>
+
+#include "weft/common/types.h"
+
+namespace weft {
+
+struct CollisionSettings {
+  bool enabled = false;                 // master switch: no collision stage at all when false
+  bool ccd = true;                      // continuous detection and the fail-safe
+  std::vector<char> face_collide;       // per cloth face: collides with bodies (empty: all)
+  std::vector<char> face_self_collide;  // per cloth face: cloth/cloth (empty: none)
+  std::vector<char> body_collide;       // per body (empty: all)
+  VectorX face_thickness;               // per cloth face, m (empty: 0.002)
+  VectorX face_friction;                // per cloth face (empty: 0.3)
+  int ccd_iterations = 8;               // impulse passes before impact zones
+  int zone_iterations = 100;            // impact-zone passes (each grows or merges zones)
+  bool count_intersections = true;      // exact intersection count at every frame end
+  // Cloth/body contacts also as prescribed normal velocities in the filtered solve. Off by
+  // default: the simple release rule (a vertex leaving faster than its push-out is not
+  // constrained) made resting contact jitter in the box drop (docs/collisions.md).
+  bool contact_constraints = false;
+  // Global intersection analysis (docs/intersection-analysis.md): against closed bodies and,
+  // with self-collision, cloth/cloth untangling (cloth_untangling.h). 0 off, 1 on, -1 on when
+  // some cloth vertex starts inside a closed collidable body or the self-colliding cloth
+  // starts self-intersecting.
+  int gia = 0;
+  // Body/body pinch states (body_pinch.h) when GIA is on and two or more bodies collide: CCD off
+  // for cloth where two bodies intersect each other. Off only to compare (tests, diagnosis).
+  bool body_pinch = true;
+};
+
+struct CollisionTelemetry {
+  double broad_phase_seconds = 0.0;
+  double proximity_seconds = 0.0;
+  double ccd_seconds = 0.0;
+  double response_seconds = 0.0;
+  double intersection_seconds = 0.0;  // counting at frame end
+  int proximity_pairs = 0;
+  int ccd_candidates = 0;  // feature pairs given to CCD
+  int ccd_hits = 0;
+  int impact_zones = 0;
+  int iterations = 0;  // CCD impulse passes plus impact-zone passes
+  int unresolved = 0;  // colliding pairs left when the zone budget ran out
+  int intersections = -1;  // triangle pairs intersecting at frame end (-1: not counted)
+  double gia_seconds = 0.0;     // cloth/body inside classification and recovery pushes
+  int gia_coloured_vertices = 0;  // cloth vertices inside a closed body, most over the substeps
+  int gia_pushed_vertices = 0;    // contour vertices pushed out, summed over substeps
+  int gia_paths = 0;              // cloth/body intersection paths at a substep start, most over the frame
+  int gia_body_coloured_faces = 0;  // body faces in intersection with the cloth, most over the frame
+  int gia_pinched_body_pairs = 0;  // body pairs not free over a substep (body_pinch.h), most over the substeps
+  int gia_gripped_vertices = 0;    // cloth vertices moved with a body in a pinch, summed over substeps (not a column)
+  int gia_self_coloured_vertices = 0;  // cloth/cloth GIA: coloured vertices, most over the substeps
+  int gia_self_paths = 0;              // cloth/cloth GIA: intersection paths, most over the substeps
+  double total_seconds() const {
+    return broad_phase_seconds + proximity_seconds + ccd_seconds + response_seconds + intersection_seconds;
+  }
+  void add(const CollisionTelemetry& o);
+};
+
+// A feature pair: point indices >= 0 are cloth vertices, < 0 are body vertices -(1 + k) of
+// body `body`. Vertex-triangle: (p, a, b, c); edge-edge: (a0, a1, b0, b1).
+struct FeaturePair {
+  std::array<int, 4> point;
+  int body = -1;
+  bool edge_edge = false;
+  bool ccd = true;  // false: cloth in a body/body pinch region against one of the pair's bodies
+};
+
+}  // namespace weft

@@ -1,0 +1,74 @@
+#include "weft/collision/contact_constraints.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "weft/collision/proximity_response.h"
+#include "weft/common/timer.h"
+
+namespace weft {
+
+void ContactConstraints::constrain(const Positions& x, const Positions& v, double h, const CollisionStep& step,
+                                   ContactDetection& detection, const ContactProperties& props,
+                                   ConstraintFilter& filter, CollisionTelemetry& frame) {
+  const Timer timer;
+  const int vertex_count = static_cast<int>(x.rows());
+  detection.refit_cloth(x, x);
+  // Closest collidable body face within the thickness, per cloth vertex.
+  std::vector<double> best(vertex_count, std::numeric_limits<double>::infinity());
+  std::vector<Contact> contact(vertex_count);
+  for (size_t b = 0; b < detection.bodies().size(); ++b) {
+    const ContactDetection::Body& state = detection.bodies()[b];
+    if (!state.collide) continue;
+    const Positions& start = step.body_start[b];
+    const Positions& end = step.body_end[b];
+    for (const auto& [cf, bf] : detection.body_pairs(static_cast<int>(b), start, start)) {
+      if (!detection.face_collide()[cf]) continue;
+      const Vec3 a = row3(start, state.faces(bf, 0)), bb = row3(start, state.faces(bf, 1)),
+                 c = row3(start, state.faces(bf, 2));
+      for (int vtx : detection.cloth_ownership().face_vertices[cf]) {
+        if (props.inverse_mass[vtx] == 0.0) continue;
+        Vec3 bary;
+        const Vec3 p = row3(x, vtx);
+        const double d = point_triangle_distance(p, a, bb, c, bary);
+        if (d >= props.thickness[vtx] || d >= best[vtx] || d <= 1e-12 * props.thickness[vtx]) continue;
+        best[vtx] = d;
+        Vec3 vb = Vec3::Zero();
+        for (int k = 0; k < 3; ++k) {
+          const int bv = state.faces(bf, k);
+          vb += bary[k] * (row3(end, bv) - row3(start, bv)) / h;
+        }
+        contact[vtx] = {vtx, static_cast<int>(b), (p - (bary[0] * a + bary[1] * bb + bary[2] * c)) / d, vb, 0.0};
+      }
+    }
+  }
+  for (int i = 0; i < vertex_count; ++i) {
+    if (!std::isfinite(best[i]) || filter.projection[i] != Mat3::Identity()) continue;
+    Contact c = contact[i];
+    const double target = kRepulsionRate * (props.thickness[i] - best[i]) / h;
+    const double vn = (row3(v, i) - c.body_velocity).dot(c.normal);
+    if (vn > target) continue;  // leaving: no constraint
+    c.delta_vn = target - vn;
+    filter.constrain_direction(i, c.normal, c.delta_vn);
+    contacts_.push_back(c);
+  }
+  frame.proximity_pairs += static_cast<int>(contacts_.size());
+  frame.proximity_seconds += timer.seconds();
+}
+
+void ContactConstraints::friction(CollisionStep& step, const ContactProperties& props) const {
+  for (const Contact& c : contacts_) {
+    const double mu = props.friction[c.vertex];
+    if (mu <= 0.0) continue;
+    const Vec3 v_rel = row3(*step.v, c.vertex) - c.body_velocity;
+    const Vec3 v_t = v_rel - c.normal.dot(v_rel) * c.normal;
+    const double vt_norm = v_t.norm();
+    if (vt_norm <= 0.0) continue;
+    const double scale = std::max(0.0, 1.0 - mu * c.delta_vn / vt_norm);
+    step.v->row(c.vertex) += ((scale - 1.0) * v_t).transpose();
+    step.moved(c.vertex);
+  }
+}
+
+}  // namespace weft

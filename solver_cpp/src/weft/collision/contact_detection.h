@@ -1,0 +1,71 @@
+// Contact detection, the first part of the collision stage (collision_system.h): refit the AABB
+// trees (cloth boxes swept over the step and widened by the thickness, body boxes swept or at
+// the step's start), collect the overlapping triangle pairs cloth/body and cloth/cloth, and
+// expand each into vertex-triangle and edge-edge feature pairs, each pair once
+// (representative-triangle ownership, closest_points.h). The GIA membranes and pinch regions
+// skip pairs through a ContactFilter.
+#pragma once
+
+#include <utility>
+#include <vector>
+
+#include "weft/bodies/bodies.h"
+#include "weft/collision/collision_step.h"
+#include "weft/collision/contact_filter.h"
+#include "weft/geometry/aabb_tree.h"
+#include "weft/geometry/closest_points.h"
+
+namespace weft {
+
+class ContactDetection {
+ public:
+  struct Body {
+    bool collide = false;
+    int vertex_count = 0;
+    Faces faces;
+    FeatureOwnership own;
+    AabbTree tree;
+    std::vector<Aabb> boxes;
+  };
+
+  // face_collide / face_self: per cloth face; face_margin: per cloth face, its box growth (the
+  // largest thickness of its vertices); body_collide: per body. Trees are built at x and at
+  // the bodies' frame start.
+  ContactDetection(const Faces& cloth_faces, const Positions& x, std::vector<char> face_collide,
+                   std::vector<char> face_self, std::vector<double> face_margin,
+                   const std::vector<KinematicBody>& bodies, const std::vector<char>& body_collide);
+
+  // Cloth boxes over start..end (the same object: static boxes).
+  void refit_cloth(const Positions& start, const Positions& end);
+  // Refit body `body`'s tree over start..end (the same object: static) and return its
+  // overlapping (cloth face, body face) pairs against the cloth tree as last refitted.
+  const std::vector<std::pair<int, int>>& body_pairs(int body, const Positions& start, const Positions& end);
+  // Broad phase over step.x and step.x_end into step.pairs; cloth in a pinch region gets no CCD.
+  void collect(CollisionStep& step, const ContactFilter& filter, CollisionTelemetry& frame);
+  // Feature pairs of cloth face `cloth_face` against `other_face`, a cloth face (body < 0) or a
+  // face of body `body`, appended to out.
+  void expand_triangle_pair(int cloth_face, int other_face, int body, const ContactFilter& filter,
+                            std::vector<FeaturePair>& out) const;
+
+  const Faces& cloth_faces() const { return cloth_faces_; }
+  const std::vector<char>& face_collide() const { return face_collide_; }
+  const std::vector<char>& face_self() const { return face_self_; }
+  const std::vector<Aabb>& cloth_boxes() const { return cloth_boxes_; }
+  const FeatureOwnership& cloth_ownership() const { return cloth_own_; }
+  const std::vector<Body>& bodies() const { return bodies_; }
+  bool any_self() const { return any_self_; }
+  bool any_body() const { return any_body_; }
+
+ private:
+  Faces cloth_faces_;
+  std::vector<char> face_collide_, face_self_;
+  std::vector<double> face_margin_;
+  bool any_self_ = false, any_body_ = false;
+  FeatureOwnership cloth_own_;
+  AabbTree cloth_tree_;
+  std::vector<Aabb> cloth_boxes_;
+  std::vector<Body> bodies_;
+  std::vector<std::pair<int, int>> scratch_pairs_;
+};
+
+}  // namespace weft

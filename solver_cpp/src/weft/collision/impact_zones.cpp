@@ -1,0 +1,115 @@
+#include "weft/collision/impact_zones.h"
+
+#include <algorithm>
+
+#include <Eigen/Eigenvalues>
+
+#include "weft/common/timer.h"
+#include "weft/common/union_find.h"
+
+namespace weft {
+
+int ImpactZones::resolve(CollisionStep& step, const ContactProperties& props, std::vector<int>& hits, int iterations,
+                         const std::function<void(std::vector<int>&)>& redetect, CollisionTelemetry& frame) const {
+  const int vertex_count = static_cast<int>(step.x->rows());
+  const Positions& x = *step.x;
+  Positions& v = *step.v;
+  UnionFind zones(vertex_count);
+  std::vector<char> in_zone(vertex_count, 0);
+  // Body points the zones touched: (a cloth vertex of the pair, body point start, velocity).
+  struct BodyReference {
+    int cloth_vertex;
+    Vec3 x, v;
+  };
+  std::vector<BodyReference> body_references;
+  int zone_count = 0;
+  for (int iteration = 0; iteration < iterations && !hits.empty(); ++iteration) {
+    const Timer timer;
+    ++frame.iterations;
+    for (int k : hits) {
+      const FeaturePair& pair = step.pairs[k];
+      int first = -1;
+      for (int p : pair.point) {
+        if (p < 0) continue;
+        in_zone[p] = 1;
+        if (first < 0) first = p; else zones.unite(first, p);
+      }
+      for (int p : pair.point)
+        if (p < 0 && first >= 0)
+          body_references.push_back({first, step.start_of(p, pair.body), step.velocity_of(p, pair.body)});
+    }
+    // Zone velocities. A zone held by kinematic references (its pinned vertices, and the body
+    // velocities at the cloth vertices that touched a body) moves with the affine velocity field
+    // that fits them best (least squares; minimum norm when they are fewer than four or
+    // coplanar): one reference gives a translation, several on a rotating limb give its
+    // rotation, so a zone pinned along a swinging limb can follow it. The body references are
+    // the body vertices of the colliding pairs (their start positions and velocities), so a
+    // zone caught on a rigidly moving body moves exactly with it. Other zones translate,
+    // keeping their momentum.
+    std::vector<Vec3> momentum(vertex_count, Vec3::Zero()), ref_sum(vertex_count, Vec3::Zero()),
+        ref_point(vertex_count, Vec3::Zero());
+    std::vector<double> mass(vertex_count, 0.0);
+    std::vector<int> ref_count(vertex_count, 0);
+    auto for_each_reference = [&](auto&& visit) {
+      for (int i = 0; i < vertex_count; ++i) {
+        if (!in_zone[i]) continue;
+        const int r = zones.find(i);
+        if (props.inverse_mass[i] == 0.0) visit(r, row3(x, i), Vec3(row3(v, i)));
+      }
+      for (const BodyReference& ref : body_references) visit(zones.find(ref.cloth_vertex), ref.x, ref.v);
+    };
+    for (int i = 0; i < vertex_count; ++i) {
+      if (!in_zone[i] || props.inverse_mass[i] == 0.0) continue;
+      const int r = zones.find(i);
+      mass[r] += 1.0 / props.inverse_mass[i];
+      momentum[r] += row3(v, i) / props.inverse_mass[i];
+    }
+    for_each_reference([&](int r, const Vec3& p, const Vec3& vp) {
+      ref_point[r] += p;
+      ref_sum[r] += vp;
+      ++ref_count[r];
+    });
+    std::vector<Eigen::Matrix3d> spread(vertex_count, Eigen::Matrix3d::Zero()),
+        moment(vertex_count, Eigen::Matrix3d::Zero());
+    for_each_reference([&](int r, const Vec3& p, const Vec3& vp) {
+      const Vec3 d = p - ref_point[r] / ref_count[r];
+      spread[r] += d * d.transpose();
+      moment[r] += (vp - ref_sum[r] / ref_count[r]) * d.transpose();
+    });
+    std::vector<Eigen::Matrix3d> gradient(vertex_count, Eigen::Matrix3d::Zero());
+    zone_count = 0;
+    for (int i = 0; i < vertex_count; ++i) {
+      if (!in_zone[i] || zones.find(i) != i) continue;
+      ++zone_count;
+      if (ref_count[i] < 2) continue;
+      // Pseudo-inverse of the references' spread (directions with no spread get no gradient).
+      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(spread[i]);
+      const double cutoff = 1e-10 * std::max(eigen.eigenvalues().maxCoeff(), 1e-300);
+      Eigen::Matrix3d inverse = Eigen::Matrix3d::Zero();
+      for (int k = 0; k < 3; ++k)
+        if (eigen.eigenvalues()[k] > cutoff)
+          inverse += eigen.eigenvectors().col(k) * eigen.eigenvectors().col(k).transpose() / eigen.eigenvalues()[k];
+      gradient[i] = moment[i] * inverse;
+    }
+    for (int i = 0; i < vertex_count; ++i) {
+      if (!in_zone[i] || props.inverse_mass[i] == 0.0) continue;
+      const int r = zones.find(i);
+      Vec3 vz;
+      if (ref_count[r] > 0)
+        vz = ref_sum[r] / ref_count[r] + gradient[r] * (row3(x, i) - ref_point[r] / ref_count[r]);
+      else
+        vz = momentum[r] / mass[r];
+      v.row(i) = vz.transpose();
+      step.moved(i);
+      step.changed[i] = 1;
+    }
+    frame.response_seconds += timer.seconds();
+    hits.clear();
+    redetect(hits);
+  }
+  frame.impact_zones += zone_count;
+  frame.unresolved += static_cast<int>(hits.size());
+  return zone_count;
+}
+
+}  // namespace weft

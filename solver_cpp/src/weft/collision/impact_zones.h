@@ -1,0 +1,22 @@
+// The fail-safe of the collision stage (Provot 1995; Harmon et al. 2008): cloth vertices of
+// pairs still colliding after the CCD passes are merged into zones that move rigidly, then the
+// pairs are re-detected, until collision-free. Zones only grow, so this always ends.
+#pragma once
+
+#include <functional>
+#include <vector>
+
+#include "weft/collision/collision_step.h"
+
+namespace weft {
+
+class ImpactZones {
+ public:
+  // hits: indices into step.pairs of the colliding pairs; after each pass of zone velocities
+  // `redetect` refills it (detection and CCD against the new velocities). At most `iterations`
+  // passes; the hits left count as unresolved. Returns the number of zones of the last pass.
+  int resolve(CollisionStep& step, const ContactProperties& props, std::vector<int>& hits, int iterations,
+              const std::function<void(std::vector<int>&)>& redetect, CollisionTelemetry& frame) const;
+};
+
+}  // namespace weft

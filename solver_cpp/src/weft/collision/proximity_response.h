@@ -1,0 +1,20 @@
+// Proximity response (Bridson, Fedkiw & Anderson 2002): feature pairs closer than the
+// thickness at the step's start get repulsion impulses towards a separation of one thickness,
+// with Coulomb friction.
+#pragma once
+
+#include "weft/collision/collision_step.h"
+
+namespace weft {
+
+// A pair closer than the thickness gets a normal velocity of at least this fraction of the
+// missing separation per step (a stiff, damped repulsion).
+constexpr double kRepulsionRate = 0.1;
+
+class ProximityResponse {
+ public:
+  // Impulses over step.pairs in order; returns the number of pairs pushed.
+  int apply(CollisionStep& step, const ContactProperties& props, CollisionTelemetry& frame) const;
+};
+
+}  // namespace weft

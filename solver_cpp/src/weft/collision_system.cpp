@@ -1,0 +1,195 @@
+#include "weft/collision_system.h"
+
+#include <algorithm>
+#include <stdexcept>
+#include <string>
+
+#include "weft/collision/impact_zones.h"
+#include "weft/collision/proximity_response.h"
+#include "weft/common/timer.h"
+#include "weft/geometry/intersection_count.h"
+#include "weft/gia/gia_body_driver.h"
+#include "weft/gia/pinch_driver.h"
+
+namespace weft {
+
+namespace {
+
+// The settings' per-face and per-body lists must match the cloth and the bodies.
+CollisionSettings checked(CollisionSettings s, int face_count, size_t body_count) {
+  auto check_size = [face_count](size_t size, const char* name) {
+    if (size != 0 && size != static_cast<size_t>(face_count))
+      throw std::invalid_argument(std::string("collision.") + name + " has " + std::to_string(size) +
+                                  " entries, expected one per face (" + std::to_string(face_count) + ")");
+  };
+  check_size(s.face_collide.size(), "face_collide");
+  check_size(s.face_self_collide.size(), "face_self_collide");
+  check_size(s.face_thickness.size(), "face_thickness");
+  check_size(s.face_friction.size(), "face_friction");
+  if (!s.body_collide.empty() && s.body_collide.size() != body_count)
+    throw std::invalid_argument("collision.body_collide must have one entry per body");
+  return s;
+}
+
+ContactDetection make_detection(const CollisionSettings& s, const Faces& cloth_faces, const Positions& x,
+                                const std::vector<KinematicBody>& bodies, const ContactProperties& props) {
+  const int face_count = static_cast<int>(cloth_faces.rows());
+  std::vector<char> face_collide = s.face_collide.empty() ? std::vector<char>(face_count, 1) : s.face_collide;
+  std::vector<char> face_self = s.face_self_collide.empty() ? std::vector<char>(face_count, 0) : s.face_self_collide;
+  const bool cloth_collides = std::any_of(face_collide.begin(), face_collide.end(), [](char c) { return c != 0; });
+  std::vector<char> body_collide(bodies.size(), 0);
+  for (size_t b = 0; b < bodies.size(); ++b)
+    body_collide[b] = cloth_collides && (s.body_collide.empty() || s.body_collide[b]);
+  std::vector<double> face_margin(face_count, 0.0);
+  for (int f = 0; f < face_count; ++f)
+    for (int c = 0; c < 3; ++c) face_margin[f] = std::max(face_margin[f], props.thickness[cloth_faces(f, c)]);
+  return ContactDetection(cloth_faces, x, std::move(face_collide), std::move(face_self), std::move(face_margin),
+                          bodies, body_collide);
+}
+
+}  // namespace
+
+// The GIA membranes and pinch regions, as the contact detection asks for them.
+class CollisionSystem::Filter : public ContactFilter {
+ public:
+  explicit Filter(const CollisionSystem& s) : s_(s) {}
+  bool skip_cloth_pair(int a, int b) const override { return s_.untangle_.skip_triangle_pair(a, b); }
+  bool coloured(int p, int body) const override { return s_.gia_bodies_ && s_.gia_bodies_->coloured(p, body); }
+  int body_face_colour(int f, int body) const override {
+    return s_.gia_bodies_ ? s_.gia_bodies_->body_face_colour(f, body) : 0;
+  }
+  bool cloth_face_contour(int f, int body) const override {
+    return s_.gia_bodies_ && s_.gia_bodies_->cloth_face_contour(f, body);
+  }
+  bool pinched_face(int f, int body) const override { return s_.pinch_ && s_.pinch_->face_in_region(f, body); }
+
+ private:
+  const CollisionSystem& s_;
+};
+
+CollisionSystem::CollisionSystem(const Faces& cloth_faces, const Positions& x, const std::vector<double>& vertex_mass,
+                                 const std::vector<int>& pinned_vertices, const std::vector<KinematicBody>& bodies,
+                                 CollisionSettings settings, int threads)
+    : settings_(checked(std::move(settings), static_cast<int>(cloth_faces.rows()), bodies.size())),
+      threads_(std::max(threads, 1)),
+      props_(ContactProperties::from_faces(cloth_faces, settings_.face_thickness, settings_.face_friction, vertex_mass,
+                                           pinned_vertices)),
+      detection_(make_detection(settings_, cloth_faces, x, bodies, props_)), ccd_(threads_) {
+  const int vertex_count = static_cast<int>(x.rows());
+  step_.body_start.resize(bodies.size());
+  step_.body_end.resize(bodies.size());
+  // GIA switch: -1 resolves to on when the cloth starts in intersection with a closed body:
+  // some cloth vertex inside it, or some cloth triangle through it (a patch pushed wholly
+  // through a thin body has no vertex inside), or when the self-colliding cloth starts
+  // self-intersecting (exact count).
+  gia_ = settings_.gia > 0;
+  if (settings_.gia < 0) {
+    gia_ = GiaBodyDriver::starts_in_intersection(x, detection_, bodies, threads_);
+    if (!gia_ && detection_.any_self())
+      gia_ = count_self_intersections(x, detection_.cloth_faces(), detection_.face_self()) > 0;
+  }
+  if (gia_ && detection_.any_self()) untangle_ = ClothUntangling(detection_.cloth_faces(), detection_.face_self(), vertex_count);
+  if (gia_) gia_bodies_ = std::make_unique<GiaBodyDriver>(detection_, vertex_count);
+  std::vector<int> pinch_bodies;
+  for (size_t b = 0; b < detection_.bodies().size(); ++b)
+    if (detection_.bodies()[b].collide) pinch_bodies.push_back(static_cast<int>(b));
+  if (gia_ && settings_.body_pinch && pinch_bodies.size() >= 2)
+    pinch_ = std::make_unique<PinchDriver>(pinch_bodies, static_cast<int>(bodies.size()), vertex_count, threads_);
+  filter_ = std::make_unique<Filter>(*this);
+}
+
+CollisionSystem::~CollisionSystem() = default;
+
+const BodyPinchTracker* CollisionSystem::pinch() const { return pinch_ ? &pinch_->tracker() : nullptr; }
+
+void CollisionSystem::body_positions(const std::vector<KinematicBody>& bodies, double alpha0, double alpha1) {
+  for (size_t b = 0; b < detection_.bodies().size(); ++b) {
+    if (!detection_.bodies()[b].collide) continue;
+    bodies[b].positions_at(alpha0, step_.body_start[b]);
+    bodies[b].positions_at(alpha1, step_.body_end[b]);
+  }
+}
+
+void CollisionSystem::constrain_contacts(const Positions& x, const Positions& v, double h,
+                                         const std::vector<KinematicBody>& bodies, double alpha0, double alpha1,
+                                         ConstraintFilter& filter) {
+  constraints_.clear();
+  if (!settings_.contact_constraints || !detection_.any_body()) return;
+  body_positions(bodies, alpha0, alpha1);
+  constraints_.constrain(x, v, h, step_, detection_, props_, filter, frame_);
+}
+
+void CollisionSystem::redetect(std::vector<int>& hits) {
+  detection_.collect(step_, *filter_, frame_);
+  ccd_.pass(step_, props_, false, &hits, true, frame_);
+}
+
+void CollisionSystem::respond(const Positions& x, Positions& v, double h, const std::vector<KinematicBody>& bodies,
+                              double alpha0, double alpha1) {
+  step_.begin(x, v, h);
+  body_positions(bodies, alpha0, alpha1);
+  constraints_.friction(step_, props_);
+  if (pinch_) pinch_->update(step_, detection_, props_.default_thickness, frame_);
+  const int unresolved_before = frame_.unresolved;
+  bool tangled = false;
+  if (gia_ && gia_due_) {
+    tangled = gia_bodies_->colour(step_, threads_, frame_);
+    gia_bodies_->recover(step_, props_, pinch_.get(), frame_);
+    if (detection_.any_self()) {
+      // Cloth/cloth GIA: analyse, then pull crossing edges back through.
+      const Timer timer;
+      untangle_.analyse(x, threads_);
+      frame_.gia_self_coloured_vertices = std::max(frame_.gia_self_coloured_vertices, untangle_.coloured_count());
+      frame_.gia_self_paths = std::max(frame_.gia_self_paths, untangle_.path_count());
+      if (untangle_.pull(x, v, h, props_.inverse_mass, props_.thickness) > 0) step_.x_end = x + h * v;
+      frame_.gia_seconds += timer.seconds();
+      tangled = tangled || untangle_.any();
+    }
+  } else if (gia_) {
+    gia_bodies_->clear();
+    untangle_.clear();
+  }
+  detection_.collect(step_, *filter_, frame_);
+  ProximityResponse().apply(step_, props_, frame_);
+  if (settings_.ccd) {
+    int& iteration = step_.ccd_iteration;
+    for (iteration = 0; iteration < settings_.ccd_iterations; ++iteration) {
+      detection_.collect(step_, *filter_, frame_);
+      ++frame_.iterations;
+      if (ccd_.pass(step_, props_, true, nullptr, iteration > 0, frame_) == 0) break;
+    }
+    if (iteration == settings_.ccd_iterations) {
+      std::vector<int> hits;
+      redetect(hits);
+      if (!hits.empty())
+        ImpactZones().resolve(step_, props_, hits, settings_.zone_iterations,
+                              [this](std::vector<int>& found) { redetect(found); }, frame_);
+    }
+  }
+  const bool ccd_skipped =
+      !settings_.ccd || std::any_of(step_.pairs.begin(), step_.pairs.end(), [](const FeaturePair& p) { return !p.ccd; });
+  gia_due_ = tangled || ccd_skipped || frame_.unresolved > unresolved_before || (pinch_ && pinch_->active_pairs() > 0);
+  step_.end();
+}
+
+int CollisionSystem::count_intersections(const Positions& x, const std::vector<KinematicBody>& bodies) const {
+  int total = 0;
+  if (detection_.any_self()) total += count_self_intersections(x, detection_.cloth_faces(), detection_.face_self());
+  for (size_t b = 0; b < detection_.bodies().size(); ++b)
+    if (detection_.bodies()[b].collide)
+      total += weft::count_intersections(x, detection_.cloth_faces(), bodies[b].frame_end(),
+                                         detection_.bodies()[b].faces, detection_.face_collide());
+  return total;
+}
+
+CollisionTelemetry CollisionSystem::end_frame(const Positions& x, const std::vector<KinematicBody>& bodies) {
+  if (settings_.count_intersections) {
+    const Timer timer;
+    frame_.intersections = count_intersections(x, bodies);
+    if (frame_.intersections > 0) gia_due_ = true;
+    frame_.intersection_seconds += timer.seconds();
+  }
+  return frame_;
+}
+
+}  // namespace weft

@@ -1,0 +1,90 @@
+// The collision stage of a step (Bridson, Fedkiw & Anderson 2002, with the fail-safe of
+// Provot 1995 / Harmon et al. 2008): after the velocity solve, with x the start-of-step
+// positions and v the new velocities (so the step moves x to x + h v), the CollisionSystem
+// runs its parts over one CollisionStep (collision/collision_step.h):
+//   0. GIA (when on and due): cloth coloured inside closed bodies and pushed out
+//      (gia/gia_body_driver.h), body/body pinch states (gia/pinch_driver.h), cloth/cloth
+//      untangling (gia/cloth_untangling.h);
+//   1. contact detection (collision/contact_detection.h): refit the AABB trees, collect
+//      triangle pairs cloth/body and cloth/cloth, expand them into feature pairs, each once;
+//   2. proximity (collision/proximity_response.h): repulsion impulses with friction;
+//   3. CCD (collision/ccd_response.h): iterated inelastic impulses until no pair collides or
+//      the iteration budget is spent;
+//   4. rigid impact zones (collision/impact_zones.h) for what is left, re-detected until
+//      collision-free.
+// Kinematic bodies and pinned vertices have infinite mass.
+#pragma once
+
+#include <memory>
+#include <vector>
+
+#include "weft/bodies/bodies.h"
+#include "weft/collision/ccd_response.h"
+#include "weft/collision/collision_step.h"
+#include "weft/collision/collision_types.h"
+#include "weft/collision/contact_constraints.h"
+#include "weft/collision/contact_detection.h"
+#include "weft/gia/body_pinch.h"
+#include "weft/gia/cloth_untangling.h"
+#include "weft/linear_system/pcg.h"
+
+namespace weft {
+
+class GiaBodyDriver;
+class PinchDriver;
+
+class CollisionSystem {
+ public:
+  CollisionSystem(const Faces& cloth_faces, const Positions& x, const std::vector<double>& vertex_mass,
+                  const std::vector<int>& pinned_vertices, const std::vector<KinematicBody>& bodies,
+                  CollisionSettings settings, int threads);
+  ~CollisionSystem();
+
+  // Adjusts v so that x + h v is collision-free. Bodies move from alpha0 to alpha1 of the frame.
+  void respond(const Positions& x, Positions& v, double h, const std::vector<KinematicBody>& bodies, double alpha0,
+               double alpha1);
+
+  // Before the solve: cloth/body contacts as constraints of the filtered solve
+  // (collision/contact_constraints.h); friction for them is applied in respond().
+  void constrain_contacts(const Positions& x, const Positions& v, double h, const std::vector<KinematicBody>& bodies,
+                          double alpha0, double alpha1, ConstraintFilter& filter);
+
+  // Exact count of intersecting triangle pairs (cloth/body for collidable bodies at the end of
+  // the frame, cloth/cloth among self-colliding faces).
+  int count_intersections(const Positions& x, const std::vector<KinematicBody>& bodies) const;
+
+  void begin_frame() { frame_ = {}; }
+  CollisionTelemetry end_frame(const Positions& x, const std::vector<KinematicBody>& bodies);
+  const CollisionSettings& settings() const { return settings_; }
+  bool self_collision() const { return detection_.any_self(); }
+  bool gia() const { return gia_; }
+  const BodyPinchTracker* pinch() const;
+
+ private:
+  class Filter;
+  void body_positions(const std::vector<KinematicBody>& bodies, double alpha0, double alpha1);
+  // Detection and CCD against the current velocities (the impact zones' re-detection).
+  void redetect(std::vector<int>& hits);
+
+  CollisionSettings settings_;
+  int threads_;
+  ContactProperties props_;
+  ContactDetection detection_;
+  bool gia_ = false;
+  // GIA runs in a step only when the state may be in intersection: at the first step, after a
+  // step whose analysis found something, whose collision stage left pairs unresolved or ran
+  // without CCD for some pairs (a pinch), or after a frame whose exact count was not zero. A
+  // step that starts intersection-free and ends with every pair resolved by CCD cannot create
+  // an intersection, so the next analysis would find nothing.
+  bool gia_due_ = true;
+  std::unique_ptr<GiaBodyDriver> gia_bodies_;  // with GIA on
+  std::unique_ptr<PinchDriver> pinch_;         // with GIA on and two or more collidable bodies
+  ClothUntangling untangle_;                   // cloth/cloth GIA (with GIA on and self-collision)
+  std::unique_ptr<Filter> filter_;
+  CcdResponse ccd_;
+  ContactConstraints constraints_;
+  CollisionStep step_;
+  CollisionTelemetry frame_;
+};
+
+}  // namespace weft

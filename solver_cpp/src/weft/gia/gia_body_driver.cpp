@@ -1,0 +1,233 @@
+#include "weft/gia/gia_body_driver.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "weft/common/timer.h"
+#include "weft/common/union_find.h"
+#include "weft/geometry/intersection_count.h"
+#include "weft/gia/intersection_analysis.h"
+#include "weft/gia/pinch_driver.h"
+
+namespace weft {
+
+namespace {
+// A contour vertex inside a body gets an outward normal velocity (relative to the body) of at
+// least this fraction of (depth + thickness) per step.
+constexpr double kRecoveryRate = 1.0;
+
+bool closed_body(const ContactDetection::Body& body) {
+  return body.collide && build_gia_topology(body.vertex_count, body.faces).closed;
+}
+}  // namespace
+
+bool GiaBodyDriver::starts_in_intersection(const Positions& x, const ContactDetection& detection,
+                                           const std::vector<KinematicBody>& bodies, int threads) {
+  for (size_t b = 0; b < bodies.size(); ++b) {
+    const ContactDetection::Body& state = detection.bodies()[b];
+    if (!closed_body(state)) continue;
+    const auto inside = points_inside_closed_mesh(x, bodies[b].frame_start(), state.faces, threads);
+    if (std::any_of(inside.begin(), inside.end(), [](std::int8_t c) { return c != 0; }) ||
+        count_intersections(x, detection.cloth_faces(), bodies[b].frame_start(), state.faces,
+                            detection.face_collide()) > 0)
+      return true;
+  }
+  return false;
+}
+
+GiaBodyDriver::GiaBodyDriver(const ContactDetection& detection, int vertex_count)
+    : detection_(detection), vertex_count_(vertex_count), bodies_(detection.bodies().size()) {
+  for (size_t b = 0; b < bodies_.size(); ++b) bodies_[b].closed = closed_body(detection.bodies()[b]);
+  const Faces& cloth_faces = detection.cloth_faces();
+  const std::vector<char>& face_collide = detection.face_collide();
+  const int face_count = static_cast<int>(cloth_faces.rows());
+  for (int f = 0; f < face_count; ++f)
+    if (face_collide[f]) collide_face_ids_.push_back(f);
+  collide_faces_.resize(static_cast<Eigen::Index>(collide_face_ids_.size()), 3);
+  for (size_t k = 0; k < collide_face_ids_.size(); ++k) collide_faces_.row(k) = cloth_faces.row(collide_face_ids_[k]);
+  cloth_neighbours_.assign(vertex_count_, {});
+  vertex_collide_.assign(vertex_count_, 0);
+  for (int f = 0; f < face_count; ++f)
+    for (int c = 0; c < 3; ++c) {
+      const int a = cloth_faces(f, c), b = cloth_faces(f, (c + 1) % 3);
+      cloth_neighbours_[a].push_back(b);
+      cloth_neighbours_[b].push_back(a);
+      if (face_collide[f]) vertex_collide_[a] = 1;
+    }
+  for (auto& n : cloth_neighbours_) {
+    std::sort(n.begin(), n.end());
+    n.erase(std::unique(n.begin(), n.end()), n.end());
+  }
+}
+
+void GiaBodyDriver::clear() {
+  for (Body& body : bodies_) body.clear();
+}
+
+bool GiaBodyDriver::colour(const CollisionStep& step, int threads, CollisionTelemetry& frame) {
+  const Timer timer;
+  int coloured_count = 0, paths = 0, body_faces = 0;
+  GiaOptions options;
+  options.threads = threads;
+  const Faces& cloth_faces = detection_.cloth_faces();
+  for (size_t b = 0; b < bodies_.size(); ++b) {
+    Body& state = bodies_[b];
+    state.clear();
+    if (!state.closed) continue;
+    const Faces& faces = detection_.bodies()[b].faces;
+    // Cloth side: the exact inside test (ray parity). Body side: the parity colouring of the
+    // body over all separating paths, so a body segment that passes wholly through the cloth
+    // (a patch pushed through a thin bone) is marked even though no cloth vertex is inside.
+    const GiaResult gia = analyse_intersections(*step.x, collide_faces_, step.body_start[b], faces, options);
+    paths += static_cast<int>(gia.paths.size());
+    const GiaMeshColouring& cloth = gia.mesh[0];
+    const GiaMeshColouring& body = gia.mesh[1];
+    state.inside.assign(cloth.inside_other.begin(), cloth.inside_other.end());
+    if (state.inside.empty()) state.inside.assign(vertex_count_, 0);
+    const int face_count = static_cast<int>(faces.rows());
+    state.face_coloured.assign(face_count, 0);
+    for (int f = 0; f < face_count; ++f) {
+      int coloured_corners = 0;
+      for (int k = 0; k < 3; ++k) coloured_corners += body.vertex_parity_colour[faces(f, k)] != 0;
+      // Pierced faces with no coloured corner stay closed to the membrane (contact_detection.cpp).
+      state.face_coloured[f] = coloured_corners == 3 ? 3 : coloured_corners > 0 ? 2 : body.face_colour[f] == kGiaContour ? 1 : 0;
+      body_faces += state.face_coloured[f] != 0;
+    }
+    state.cloth_face_contour.assign(cloth_faces.rows(), 0);
+    for (size_t k = 0; k < collide_face_ids_.size(); ++k)
+      state.cloth_face_contour[collide_face_ids_[k]] = cloth.face_colour[k] == kGiaContour;
+    for (int i = 0; i < vertex_count_; ++i)
+      if (state.inside[i] && vertex_collide_[i]) ++coloured_count;
+  }
+  frame.gia_coloured_vertices = std::max(frame.gia_coloured_vertices, coloured_count);
+  frame.gia_paths = std::max(frame.gia_paths, paths);
+  frame.gia_body_coloured_faces = std::max(frame.gia_body_coloured_faces, body_faces);
+  frame.gia_seconds += timer.seconds();
+  return paths > 0 || coloured_count > 0;
+}
+
+void GiaBodyDriver::recover(CollisionStep& step, const ContactProperties& props, PinchDriver* pinch,
+                            CollisionTelemetry& frame) {
+  const Timer timer;
+  const Positions& x = *step.x;
+  Positions& v = *step.v;
+  int pushed = 0;
+  for (size_t b = 0; b < bodies_.size(); ++b) {
+    Body& state = bodies_[b];
+    if (state.inside.empty()) continue;
+    const Faces& faces = detection_.bodies()[b].faces;
+    const Positions& start = step.body_start[b];
+    const Positions& end = step.body_end[b];
+    // One exit direction per connected coloured region: the mean, over its contour, of the
+    // directions from contour vertices to their uncoloured neighbours (so a region leaves on
+    // one side, not spread sideways).
+    UnionFind regions(vertex_count_);
+    for (int i = 0; i < vertex_count_; ++i)
+      if (state.inside[i])
+        for (int j : cloth_neighbours_[i])
+          if (state.inside[j]) regions.unite(i, j);
+    // Body/body pinch (body_pinch.h): a coloured region with a vertex where this body and another
+    // intersect is gripped: it moves with the body (pushed out of one body it would go into the
+    // other) until they open, then leaves through the nearest face.
+    const int body = static_cast<int>(b);
+    std::vector<char> held;
+    std::vector<char>* gripped = pinch ? &pinch->gripped(body) : nullptr;
+    if (gripped) {
+      for (int i = 0; i < vertex_count_; ++i) {
+        if (!state.inside[i]) (*gripped)[i] = 0;
+        else if (pinch->held(i, body)) {
+          if (held.empty()) held.assign(vertex_count_, 0);
+          held[regions.find(i)] = 1;
+        }
+      }
+    }
+    std::vector<Vec3> region_towards(vertex_count_, Vec3::Zero());
+    for (int i = 0; i < vertex_count_; ++i)
+      if (state.inside[i])
+        for (int j : cloth_neighbours_[i])
+          if (!state.inside[j]) region_towards[regions.find(i)] += row3(x, j) - row3(x, i);
+    for (int i = 0; i < vertex_count_; ++i) {
+      if (!state.inside[i] || !vertex_collide_[i] || props.inverse_mass[i] == 0.0) continue;
+      if (!held.empty() && held[regions.find(i)]) {
+        (*gripped)[i] = 1;
+        pinch->grip(i, faces, start, end, step, frame);
+        continue;
+      }
+      const bool released = gripped && (*gripped)[i];  // was gripped: every vertex, nearest face
+      // Contour vertices only (an uncoloured neighbour); deep ones follow through the cloth.
+      const bool contour = std::any_of(cloth_neighbours_[i].begin(), cloth_neighbours_[i].end(),
+                                       [&](int j) { return !state.inside[j]; });
+      if (!contour && !released) continue;
+      // Exit on the side of the uncoloured neighbours: along the region's direction, through
+      // the first body face that ray crosses; else (no such direction or face) through the
+      // nearest body face. Lowest face id on ties: deterministic.
+      const Vec3 p = row3(x, i);
+      const Vec3 towards = released ? Vec3::Zero() : region_towards[regions.find(i)];
+      const int body_faces = static_cast<int>(faces.rows());
+      auto corner = [&](int f, int k) { return row3(start, faces(f, k)); };
+      double best = std::numeric_limits<double>::infinity();
+      int best_face = -1;
+      Vec3 best_bary = Vec3::Zero();
+      Vec3 n = Vec3::Zero();
+      if (towards.norm() > 1e-9 * props.thickness[i]) {
+        const Vec3 dir = towards.normalized();
+        for (int f = 0; f < body_faces; ++f) {  // Moller-Trumbore
+          const Vec3 a = corner(f, 0), e1 = corner(f, 1) - a, e2 = corner(f, 2) - a;
+          const Vec3 pv = dir.cross(e2);
+          const double det = e1.dot(pv);
+          if (std::abs(det) <= 1e-300) continue;
+          const Vec3 tv = p - a;
+          const double u = tv.dot(pv) / det;
+          const Vec3 qv = tv.cross(e1);
+          const double w = dir.dot(qv) / det;
+          const double t = e2.dot(qv) / det;
+          // A small tolerance so that a ray through a shared edge or corner is not missed.
+          constexpr double kEdge = 1e-9;
+          if (u < -kEdge || w < -kEdge || u + w > 1.0 + kEdge || !(t > 0.0) || t >= best) continue;
+          best = t;
+          best_face = f;
+          best_bary = Vec3(1.0 - u - w, u, w).cwiseMax(0.0);
+          best_bary /= best_bary.sum();
+        }
+        if (best_face >= 0) n = dir;
+      }
+      if (best_face < 0) {
+        for (int f = 0; f < body_faces; ++f) {
+          Vec3 bary;
+          const double d = point_triangle_distance(p, corner(f, 0), corner(f, 1), corner(f, 2), bary);
+          if (d < best) {
+            best = d;
+            best_face = f;
+            best_bary = bary;
+          }
+        }
+      }
+      // Proximity gating (the seed's rule): respond only when the face the vertex would exit
+      // through is itself in intersection with the cloth; exiting through a free face would
+      // put the cloth on the wrong side of the body.
+      // Cloth released by an opened pinch leaves through the nearest face whatever its colour:
+      // it was gripped by this body, so the side it entered from is not known.
+      if (best_face < 0 || (!released && !state.face_coloured[best_face])) continue;
+      Vec3 q = Vec3::Zero(), vb = Vec3::Zero();
+      for (int k = 0; k < 3; ++k) {
+        const int bv = faces(best_face, k);
+        q += best_bary[k] * row3(start, bv);
+        vb += best_bary[k] * (row3(end, bv) - row3(start, bv)) / step.h;
+      }
+      if (n.squaredNorm() == 0.0) n = q - p;
+      if (n.norm() <= 1e-12) continue;  // on the surface with no direction to leave by
+      n.normalize();
+      const double target = kRecoveryRate * (best + props.thickness[i]) / step.h;
+      const double vn = n.dot(row3(v, i) - vb);
+      if (vn >= target) continue;
+      v.row(i) += ((target - vn) * n).transpose();
+      step.moved(i);
+      ++pushed;
+    }
+  }
+  frame.gia_pushed_vertices += pushed;
+  frame.gia_seconds += timer.seconds();
+}
+
+}  // namespace weft

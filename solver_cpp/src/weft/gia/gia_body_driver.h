@@ -1,0 +1,68 @@
+// GIA of the cloth against closed bodies in the collision stage (docs/intersection-analysis.md):
+// at the start of a step, colour the cloth vertices inside each closed collidable body and the
+// body faces in intersection with the cloth (the one-way membrane the contact detection asks
+// about: contact_filter.h), then push contour vertices out through a face in intersection
+// (recovery). Cloth gripped by a body/body pinch (pinch_driver.h) moves with the body instead.
+#pragma once
+
+#include <vector>
+
+#include "weft/bodies/bodies.h"
+#include "weft/collision/collision_step.h"
+#include "weft/collision/contact_detection.h"
+
+namespace weft {
+
+class PinchDriver;
+
+class GiaBodyDriver {
+ public:
+  GiaBodyDriver(const ContactDetection& detection, int vertex_count);
+
+  // Whether some cloth vertex starts inside a closed collidable body, or some collidable cloth
+  // triangle through one (the automatic GIA switch).
+  static bool starts_in_intersection(const Positions& x, const ContactDetection& detection,
+                                     const std::vector<KinematicBody>& bodies, int threads);
+
+  // Colours against every closed collidable body at the step's start; returns whether the cloth
+  // is in intersection with one (paths or vertices inside).
+  bool colour(const CollisionStep& step, int threads, CollisionTelemetry& frame);
+  // Recovery pushes (and pinch grips) on step.v.
+  void recover(CollisionStep& step, const ContactProperties& props, PinchDriver* pinch, CollisionTelemetry& frame);
+  void clear();
+
+  // Membrane queries (see ContactFilter).
+  bool coloured(int p, int body) const {
+    return p >= 0 && !bodies_[body].inside.empty() && bodies_[body].inside[p];
+  }
+  int body_face_colour(int f, int body) const {
+    return !bodies_[body].face_coloured.empty() ? bodies_[body].face_coloured[f] : 0;
+  }
+  bool cloth_face_contour(int f, int body) const {
+    return !bodies_[body].cloth_face_contour.empty() && bodies_[body].cloth_face_contour[f];
+  }
+
+ private:
+  struct Body {
+    bool closed = false;             // collidable and watertight: analysed
+    std::vector<char> inside;        // per cloth vertex: inside the body (coloured)
+    // per body face: 3 all vertices in the body's coloured region (in intersection with the
+    // cloth), 2 some vertex in it, 1 none but pierced by the cloth, 0 free
+    std::vector<char> face_coloured;
+    std::vector<char> cloth_face_contour;  // per cloth face: it and the body pierce each other
+    void clear() {
+      inside.clear();
+      face_coloured.clear();
+      cloth_face_contour.clear();
+    }
+  };
+  const ContactDetection& detection_;
+  int vertex_count_;
+  std::vector<Body> bodies_;
+  std::vector<std::vector<int>> cloth_neighbours_;  // contour test
+  std::vector<char> vertex_collide_;                // on some body-colliding face
+  Faces collide_faces_;                             // the cloth faces that collide with bodies
+  std::vector<int> collide_face_ids_;               // their ids among all cloth faces
+};
+
+}  // namespace weft

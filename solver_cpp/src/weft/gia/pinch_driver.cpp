@@ -1,0 +1,92 @@
+#include "weft/gia/pinch_driver.h"
+
+#include <algorithm>
+#include <limits>
+
+#include "weft/common/timer.h"
+#include "weft/geometry/closest_points.h"
+#include "weft/geometry/intersection_count.h"
+
+namespace weft {
+
+PinchDriver::PinchDriver(std::vector<int> bodies, int body_count, int vertex_count, int threads)
+    : tracker_(std::move(bodies), threads), gripped_(body_count, std::vector<char>(vertex_count, 0)) {}
+
+void PinchDriver::grip(int i, const Faces& faces, const Positions& start, const Positions& end, CollisionStep& step,
+                       CollisionTelemetry& frame) const {
+  // The velocity of the closest body point (lowest face id on ties).
+  const Vec3 p = row3(*step.x, i);
+  double best = std::numeric_limits<double>::infinity();
+  Vec3 vb = Vec3::Zero();
+  for (int f = 0; f < faces.rows(); ++f) {
+    Vec3 bary;
+    const double d = point_triangle_distance(p, row3(start, faces(f, 0)), row3(start, faces(f, 1)),
+                                             row3(start, faces(f, 2)), bary);
+    if (!(d < best)) continue;
+    best = d;
+    vb.setZero();
+    for (int k = 0; k < 3; ++k) {
+      const int bv = faces(f, k);
+      vb += bary[k] * (row3(end, bv) - row3(start, bv)) / step.h;
+    }
+  }
+  step.v->row(i) = vb.transpose();
+  step.moved(i);
+  ++frame.gia_gripped_vertices;
+}
+
+void PinchDriver::update(CollisionStep& step, ContactDetection& detection, double default_thickness,
+                         CollisionTelemetry& frame) {
+  const Timer timer;
+  const auto& bodies = detection.bodies();
+  const Faces& cloth_faces = detection.cloth_faces();
+  std::vector<const Positions*> s(bodies.size(), nullptr), e(bodies.size(), nullptr);
+  std::vector<const Faces*> f(bodies.size(), nullptr);
+  for (size_t b = 0; b < bodies.size(); ++b) {
+    s[b] = &step.body_start[b];
+    e[b] = &step.body_end[b];
+    f[b] = &bodies[b].faces;
+  }
+  const int active = tracker_.update(s, e, f);
+  frame.gia_pinched_body_pairs = std::max(frame.gia_pinched_body_pairs, active);
+  faces_.assign(bodies.size(), {});
+  held_.assign(bodies.size(), {});
+  // Cloth faces already through a body (left by a pinch: the other body's rim cuts them while
+  // CCD is off) get no CCD against it either: CCD can only keep such an intersection, so after
+  // the pinch opens it would lock the tangle. Exact test on the broad phase's candidates.
+  detection.refit_cloth(*step.x, step.x_end);
+  for (size_t b = 0; b < bodies.size(); ++b) {
+    const ContactDetection::Body& state = bodies[b];
+    if (!state.collide) continue;
+    const Positions& start = step.body_start[b];
+    for (const auto& [cf, bf] : detection.body_pairs(static_cast<int>(b), start, start)) {
+      if (!detection.face_collide()[cf] || (!faces_[b].empty() && faces_[b][cf])) continue;
+      const Positions& x = *step.x;
+      const std::array<Vec3, 3> tc = {row3(x, cloth_faces(cf, 0)), row3(x, cloth_faces(cf, 1)),
+                                      row3(x, cloth_faces(cf, 2))};
+      const std::array<Vec3, 3> tb = {row3(start, state.faces(bf, 0)), row3(start, state.faces(bf, 1)),
+                                      row3(start, state.faces(bf, 2))};
+      if (!triangles_intersect(tc, tb)) continue;
+      if (faces_[b].empty()) faces_[b].assign(cloth_faces.rows(), 0);
+      faces_[b][cf] = 1;
+    }
+  }
+  if (active > 0) {
+    // Two thicknesses: cloth within one of the intersection volume touches both bodies, and
+    // recovery or proximity leaves cloth one thickness outside a body face bounding the volume
+    // (at the region's edge, where rounding would put it in or out step by step).
+    const double margin = 2.0 * default_thickness;
+    for (size_t b = 0; b < bodies.size(); ++b) {
+      if (!bodies[b].collide) continue;
+      std::vector<char> region;
+      tracker_.mark_faces(static_cast<int>(b), detection.cloth_boxes(), margin, region);
+      if (faces_[b].empty()) faces_[b].swap(region);
+      else
+        for (size_t k = 0; k < region.size(); ++k) faces_[b][k] |= region[k];
+      tracker_.mark_vertices(static_cast<int>(b), *step.x, margin, held_[b]);
+    }
+  }
+  frame.gia_seconds += timer.seconds();
+}
+
+}  // namespace weft

@@ -1,0 +1,45 @@
+// Body/body pinches in the collision stage (body_pinch.h): per step, the pinch state of every
+// pair of collidable bodies, the cloth faces whose pairs with a body get no CCD (in a non-free
+// pair's region, or already through the body), the cloth vertices GIA recovery must leave
+// alone (held), and the cloth gripped by a body while a pinch squeezes it.
+#pragma once
+
+#include <vector>
+
+#include "weft/collision/collision_step.h"
+#include "weft/collision/contact_detection.h"
+#include "weft/gia/body_pinch.h"
+
+namespace weft {
+
+class PinchDriver {
+ public:
+  // bodies: ids of the collidable bodies (two or more), ascending, among body_count.
+  PinchDriver(std::vector<int> bodies, int body_count, int vertex_count, int threads);
+
+  // At the step's start (step.x, step.x_end and the bodies' positions set). Refits the
+  // detection's cloth tree over the step.
+  void update(CollisionStep& step, ContactDetection& detection, double default_thickness, CollisionTelemetry& frame);
+  // Cloth face in a pinch region of `body` (or through it): no CCD against it.
+  bool face_in_region(int cloth_face, int body) const {
+    return !faces_.empty() && !faces_[body].empty() && faces_[body][cloth_face];
+  }
+  // Cloth vertex in a non-free pair's region with `body`.
+  bool held(int p, int body) const { return !held_.empty() && !held_[body].empty() && held_[body][p]; }
+  // Per cloth vertex: inside `body` and gripped by a pinch (kept by GIA recovery).
+  std::vector<char>& gripped(int body) { return gripped_[body]; }
+  // Cloth vertex p moves with the closest point of the body (faces, positions at the step's
+  // start and end): squeezed into a body by another, it moves with it as friction would hold it.
+  void grip(int p, const Faces& faces, const Positions& start, const Positions& end, CollisionStep& step,
+            CollisionTelemetry& frame) const;
+  const BodyPinchTracker& tracker() const { return tracker_; }
+  int active_pairs() const { return tracker_.active_pairs(); }
+
+ private:
+  BodyPinchTracker tracker_;
+  std::vector<std::vector<char>> faces_;    // per body, per cloth face (empty: none)
+  std::vector<std::vector<char>> held_;     // per body, per cloth vertex (empty: none)
+  std::vector<std::vector<char>> gripped_;  // per body, per cloth vertex
+};
+
+}  // namespace weft

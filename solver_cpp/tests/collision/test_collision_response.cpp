@@ -1,0 +1,105 @@
+// Proximity, CCD and impact-zone response on a single vertex/triangle pair.
+#include <gtest/gtest.h>
+
+#include "weft/collision/ccd_response.h"
+#include "weft/collision/contact_impulse.h"
+#include "weft/collision/impact_zones.h"
+#include "weft/collision/proximity_response.h"
+
+namespace weft {
+namespace {
+
+constexpr double kThickness = 0.01;
+
+// Vertex 0 above triangle (1, 2, 3) in the plane z = 0; the triangle's vertices pinned (infinite
+// mass) unless `free_triangle`.
+struct VertexOverTriangle {
+  Positions x{4, 3};
+  Positions v = Positions::Zero(4, 3);
+  ContactProperties props;
+  CollisionStep step;
+  explicit VertexOverTriangle(double height, bool free_triangle = false) {
+    x << 0.2, 0.2, height, 0, 0, 0, 1, 0, 0, 0, 1, 0;
+    props.inverse_mass = {1.0, free_triangle ? 1.0 : 0.0, free_triangle ? 1.0 : 0.0, free_triangle ? 1.0 : 0.0};
+    props.thickness.assign(4, kThickness);
+    props.friction.assign(4, 0.5);
+    props.default_thickness = kThickness;
+  }
+  void begin(double h) {
+    step.begin(x, v, h);
+    step.pairs = {FeaturePair{{0, 1, 2, 3}, -1, false}};
+  }
+};
+
+TEST(ProximityResponse, PushesARestingVertexTowardsTheThicknessWithFriction) {
+  VertexOverTriangle t(0.2 * kThickness);
+  t.v.row(0) << 1.0, 0.0, 0.0;  // sliding along the triangle
+  const double h = 0.01;
+  t.begin(h);
+  CollisionTelemetry frame;
+  EXPECT_EQ(ProximityResponse().apply(t.step, t.props, frame), 1);
+  // Normal speed: kRepulsionRate of the missing separation per step.
+  EXPECT_NEAR(t.v(0, 2), kRepulsionRate * 0.8 * kThickness / h, 1e-12);
+  // Coulomb friction: tangential speed reduced by mu times the normal impulse.
+  EXPECT_NEAR(t.v(0, 0), 1.0 - 0.5 * t.v(0, 2), 1e-12);
+  EXPECT_DOUBLE_EQ(t.step.x_end(0, 2), t.x(0, 2) + h * t.v(0, 2));
+  EXPECT_EQ(t.v.bottomRows(3).norm(), 0.0);  // the pinned triangle did not move
+  // Already leaving fast enough: untouched.
+  EXPECT_EQ(ProximityResponse().apply(t.step, t.props, frame), 0);
+}
+
+TEST(CcdResponse, StopsAVertexFallingThroughATriangle) {
+  VertexOverTriangle t(0.5);
+  t.v.row(0) << 0.0, 0.0, -100.0;  // through the triangle within the step
+  t.begin(0.01);
+  CollisionTelemetry frame;
+  const CcdResponse ccd(1);
+  std::vector<int> hits;
+  EXPECT_EQ(ccd.pass(t.step, t.props, false, &hits, false, frame), 1);
+  EXPECT_EQ(hits, std::vector<int>{0});
+  EXPECT_EQ(t.v(0, 2), -100.0);  // detection only
+  EXPECT_EQ(ccd.pass(t.step, t.props, true, nullptr, false, frame), 1);
+  EXPECT_GT(t.step.x_end(0, 2), 0.0);  // ends above the triangle
+  EXPECT_EQ(ccd.pass(t.step, t.props, false, nullptr, false, frame), 0);
+}
+
+TEST(ImpactZones, MakeAConvergingPairCollisionFree) {
+  VertexOverTriangle t(0.5, true);
+  t.v.row(0) << 0.0, 0.0, -100.0;
+  t.v.bottomRows(3).col(2).setConstant(20.0);  // the triangle rises to meet it
+  t.begin(0.01);
+  CollisionTelemetry frame;
+  const CcdResponse ccd(1);
+  std::vector<int> hits;
+  ccd.pass(t.step, t.props, false, &hits, false, frame);
+  ASSERT_EQ(hits.size(), 1u);
+  const Vec3 momentum = t.v.colwise().sum().transpose();
+  int redetections = 0;
+  const int zones = ImpactZones().resolve(
+      t.step, t.props, hits, 10,
+      [&](std::vector<int>& found) {
+        ++redetections;
+        ccd.pass(t.step, t.props, false, &found, false, frame);
+      },
+      frame);
+  EXPECT_EQ(zones, 1);
+  EXPECT_EQ(redetections, 1);
+  EXPECT_TRUE(hits.empty());
+  EXPECT_EQ(frame.unresolved, 0);
+  // One rigid zone: a common velocity keeping the momentum (equal masses).
+  for (int i = 1; i < 4; ++i) EXPECT_EQ(t.v.row(i), t.v.row(0));
+  EXPECT_NEAR((t.v.colwise().sum().transpose() - momentum).norm(), 0.0, 1e-12);
+}
+
+TEST(ImpactZones, AZoneTouchingAPinnedVertexMovesWithIt) {
+  VertexOverTriangle t(0.5);  // pinned triangle at rest
+  t.v.row(0) << 0.0, 0.0, -100.0;
+  t.begin(0.01);
+  CollisionTelemetry frame;
+  std::vector<int> hits = {0};
+  ImpactZones().resolve(t.step, t.props, hits, 10, [](std::vector<int>&) {}, frame);
+  EXPECT_EQ(t.v.row(0).norm(), 0.0);
+}
+
+}  // namespace
+}  // namespace weft
