@@ -6,6 +6,7 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include "bindings.h"
 #include "weft/collision/ccd.h"
 #include "weft/integrator.h"
 #include "weft/geometry/intersection_count.h"

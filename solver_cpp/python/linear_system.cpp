@@ -5,6 +5,7 @@
 #include <pybind11/stl.h>
 
 #include "bench_support.h"
+#include "bindings.h"
 #include "weft/integrator.h"
 
 namespace py = pybind11;

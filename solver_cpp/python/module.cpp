@@ -3,17 +3,12 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
-#include "gia.h"
+#include "bindings.h"
 #include "weft/integrator.h"
 
 namespace py = pybind11;
 using namespace weft;
 
-void bind_collision(py::module_& m);  // bindings_collision.cpp
-void bind_linear_system(py::module_& m);  // bindings_linear.cpp
-namespace weft {
-void bind_pinch(py::module_& m);  // bindings_pinch.cpp
-}
 
 PYBIND11_MODULE(_solver, m) {
   m.doc() = "weft implicit cloth solver (C++ core)";
