@@ -1,6 +1,6 @@
 """Serve the API: ``python -m server --host 127.0.0.1 --port 8421 [--local]``.
 
-Settings come from WEFT_* environment variables (workers/settings.py). ``--local`` turns off
+Settings come from WEFT_* environment variables (``weft.jobstore.ServiceSettings``). ``--local`` turns off
 API keys and is refused unless the host is a loopback address.
 """
 

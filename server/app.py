@@ -46,9 +46,9 @@ from api_schemas.service import (
 )
 from server import cachefiles
 from server.uploads import UploadError, normalize_asset_path, read_limited, receive_multipart
+from weft import jobstore
+from weft.jobstore import ServiceSettings
 from weft.scene import ShotError, ShotValidationError, asset_paths, parse_shot, resolve_scene
-from workers import jobs
-from workers.settings import ServiceSettings
 
 JOB_ID = r"^[0-9a-f]{32}$"
 IDEMPOTENCY = re.compile(r"^[A-Za-z0-9_.:-]{1,128}$")
@@ -140,11 +140,11 @@ def create_app(settings: ServiceSettings | None = None) -> FastAPI:
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
         app.state.redis = aioredis.Redis.from_url(settings.redis_url, decode_responses=True)
         app.state.scripts = {
-            "cancel": app.state.redis.register_script(jobs.CANCEL_LUA),
+            "cancel": app.state.redis.register_script(jobstore.CANCEL_LUA),
         }
         settings.storage.mkdir(parents=True, exist_ok=True)
         try:
-            await app.state.redis.xgroup_create(jobs.QUEUE, jobs.GROUP, id="0", mkstream=True)
+            await app.state.redis.xgroup_create(jobstore.QUEUE, jobstore.GROUP, id="0", mkstream=True)
         except redis.RedisError:
             pass  # exists already, or Redis is not up yet (the workers create it too)
         yield
@@ -188,7 +188,7 @@ def create_app(settings: ServiceSettings | None = None) -> FastAPI:
         sim_frames = int(h.get("sim_frames", 0))
         if sim_frames:
             timing = TimingSummary(
-                frames=sim_frames, **{f"{k}_seconds": float(h.get(f"sum_{k}", 0.0)) / sim_frames for k in jobs.TIMING_KEYS}
+                frames=sim_frames, **{f"{k}_seconds": float(h.get(f"sum_{k}", 0.0)) / sim_frames for k in jobstore.TIMING_KEYS}
             )
         error = None
         if h.get("error_reason"):
@@ -205,7 +205,7 @@ def create_app(settings: ServiceSettings | None = None) -> FastAPI:
         )
 
     async def load_job(r: aioredis.Redis, owner: str, job_id: str) -> dict[str, str]:
-        h = await r.hgetall(jobs.job_key(job_id))
+        h = await r.hgetall(jobstore.job_key(job_id))
         # Another key's job is indistinguishable from a missing one.
         if not h or not hmac.compare_digest(h.get("owner", ""), owner):
             raise ApiError(404, f"no job {job_id}")
@@ -246,9 +246,9 @@ def create_app(settings: ServiceSettings | None = None) -> FastAPI:
         if idempotency_key is not None and not IDEMPOTENCY.match(idempotency_key):
             raise ApiError(400, "Idempotency-Key must be 1-128 characters of letters, digits, '_', '-', '.', ':'")
         if idempotency_key:
-            existing = await r.get(jobs.idempotency_key(owner, idempotency_key))
+            existing = await r.get(jobstore.idempotency_key(owner, idempotency_key))
             if existing:
-                return duplicate_response(request, existing, await r.hget(jobs.job_key(existing), "state"))
+                return duplicate_response(request, existing, await r.hget(jobstore.job_key(existing), "state"))
         content_type = request.headers.get("content-type", "")
         declared = request.headers.get("content-length")
         if declared and declared.isdigit() and int(declared) > settings.max_upload_bytes:
@@ -271,22 +271,19 @@ def create_app(settings: ServiceSettings | None = None) -> FastAPI:
             shot, scene_info = await anyio.to_thread.run_sync(validate_shot, body, assets, uploaded)
             (job_dir / "shot.json").write_text(shot.model_dump_json())
             if idempotency_key:
-                idem = jobs.idempotency_key(owner, idempotency_key)
+                idem = jobstore.idempotency_key(owner, idempotency_key)
                 if not await r.set(idem, job_id, nx=True, ex=IDEMPOTENCY_TTL):
                     existing = await r.get(idem)
                     shutil.rmtree(job_dir, ignore_errors=True)
-                    return duplicate_response(request, existing, await r.hget(jobs.job_key(existing), "state"))
-            created = jobs.now()
+                    return duplicate_response(request, existing, await r.hget(jobstore.job_key(existing), "state"))
+            created = jobstore.now()
             record = {
                 "id": job_id, "owner": owner, "name": shot.name, "state": "queued", "frames_done": 0,
                 "frames_total": shot.frame_count, "frame_first": shot.frame_range[0],
                 "frame_last": shot.frame_range[1], "vertices": scene_info, "created": created, "attempts": 0,
             }
             pipe = r.pipeline(transaction=True)
-            pipe.hset(jobs.job_key(job_id), mapping=record)
-            pipe.zadd(jobs.owner_key(owner), {job_id: created})
-            pipe.sadd(jobs.state_key("queued"), job_id)
-            pipe.xadd(jobs.QUEUE, {"job": job_id})
+            jobstore.queue_new_job(pipe, record)
             await pipe.execute()
         except UploadError as exc:
             shutil.rmtree(job_dir, ignore_errors=True)
@@ -346,7 +343,7 @@ def create_app(settings: ServiceSettings | None = None) -> FastAPI:
         offset: Annotated[int, Query(ge=0)] = 0,
         limit: Annotated[int, Query(ge=1, le=500)] = 50,
     ) -> JobList:
-        index = jobs.owner_key(owner)
+        index = jobstore.owner_key(owner)
         if state is None:  # one page straight from the sorted index
             total = await r.zcard(index)
             ids = await r.zrevrange(index, offset, offset + limit - 1)
@@ -354,7 +351,7 @@ def create_app(settings: ServiceSettings | None = None) -> FastAPI:
             ids = await r.zrevrange(index, 0, -1)
         pipe = r.pipeline(transaction=False)
         for job_id in ids:
-            pipe.hgetall(jobs.job_key(job_id))
+            pipe.hgetall(jobstore.job_key(job_id))
         records = [h for h in await pipe.execute() if h and (state is None or h.get("state") == state)]
         if state is not None:
             total = len(records)
@@ -380,9 +377,9 @@ def create_app(settings: ServiceSettings | None = None) -> FastAPI:
         h = await load_job(r, owner, job_id)
         start = "-"
         if since is not None:
-            start = jobs.frame_event_id(max(since - int(h["frame_first"]) + 1, 0))
+            start = jobstore.frame_event_id(max(since - int(h["frame_first"]) + 1, 0))
         rows = []
-        for _, fields in await r.xrange(jobs.events_key(job_id), start, "+"):
+        for _, fields in await r.xrange(jobstore.events_key(job_id), start, "+"):
             if fields.get("type") == "frame":
                 data = json.loads(fields["data"])
                 rows.append(FrameTelemetry(**{k: data[k] for k in FrameTelemetry.model_fields}))
@@ -410,7 +407,7 @@ def create_app(settings: ServiceSettings | None = None) -> FastAPI:
             yield "retry: 1000\n\n"
             while not await request.is_disconnected():
                 try:
-                    found = await r.xread({jobs.events_key(job_id): last}, count=200, block=2000)
+                    found = await r.xread({jobstore.events_key(job_id): last}, count=200, block=2000)
                 except redis.ConnectionError:  # Redis restarting: keep the client, retry
                     yield ": job store unavailable, retrying\n\n"
                     await asyncio.sleep(0.5)
@@ -440,7 +437,7 @@ def create_app(settings: ServiceSettings | None = None) -> FastAPI:
         for stale in settings.job_dir(job_id).glob("snapshot-*.h5"):  # left by an interrupted download
             if time.time() - stale.stat().st_mtime > 600:
                 stale.unlink(missing_ok=True)
-        if h["state"] in jobs.FINAL_STATES:
+        if h["state"] in jobstore.FINAL_STATES:
             return FileResponse(cache, media_type="application/x-hdf5", filename=filename)
         target = settings.job_dir(job_id) / f"snapshot-{uuid.uuid4().hex}.h5"
         try:
@@ -496,8 +493,8 @@ def create_app(settings: ServiceSettings | None = None) -> FastAPI:
         payload = json.dumps({"state": "cancelled", "frames_done": int(h.get("frames_done", 0)),
                               "error_frame": None, "error_reason": None})
         result = await request.app.state.scripts["cancel"](
-            keys=[jobs.job_key(job_id), jobs.events_key(job_id)],
-            args=[jobs.now(), payload, jobs.final_event_id(int(h["frames_total"])), job_id],
+            keys=[jobstore.job_key(job_id), jobstore.events_key(job_id)],
+            args=[jobstore.now(), payload, jobstore.final_event_id(int(h["frames_total"])), job_id],
         )
         if result in ("succeeded", "failed"):
             raise ApiError(409, f"job {job_id} already {result}; nothing to cancel")
@@ -505,15 +502,15 @@ def create_app(settings: ServiceSettings | None = None) -> FastAPI:
 
     @app.get("/v1/workers", response_model=WorkerList, responses=ERRORS, summary="Workers and their heartbeats")
     async def list_workers(r: Store, owner: Owner) -> WorkerList:
-        now = jobs.now()
+        now = jobstore.now()
         out = []
-        for name, record in (await r.hgetall(jobs.WORKERS)).items():
+        for name, record in (await r.hgetall(jobstore.WORKERS)).items():
             w = json.loads(record)
             if now - float(w["heartbeat"]) > STALE_WORKER_SECONDS:  # long dead: forget it
-                await r.hdel(jobs.WORKERS, name)
+                await r.hdel(jobstore.WORKERS, name)
                 continue
             job_id = w.get("job")
-            if job_id and await r.hget(jobs.job_key(job_id), "owner") != owner:
+            if job_id and await r.hget(jobstore.job_key(job_id), "owner") != owner:
                 job_id = None
             age = now - float(w["heartbeat"])
             out.append(WorkerInfo(
@@ -540,15 +537,15 @@ def create_app(settings: ServiceSettings | None = None) -> FastAPI:
     @app.get("/metrics", summary="Prometheus metrics", response_class=Response)
     async def metrics(r: Store) -> Response:
         pipe = r.pipeline(transaction=False)
-        for state in jobs.STATES:
-            pipe.scard(jobs.state_key(state))
-        pipe.hgetall(jobs.WORKERS)
-        pipe.hgetall(jobs.STATS)
+        for state in jobstore.STATES:
+            pipe.scard(jobstore.state_key(state))
+        pipe.hgetall(jobstore.WORKERS)
+        pipe.hgetall(jobstore.STATS)
         *counts, workers, stats = await pipe.execute()
         jobs_gauge = GaugeMetricFamily("weft_jobs", "Jobs by state", labels=["state"])
-        for state, count in zip(jobs.STATES, counts, strict=True):
+        for state, count in zip(jobstore.STATES, counts, strict=True):
             jobs_gauge.add_metric([state], count)
-        now = jobs.now()
+        now = jobstore.now()
         alive = sum(1 for w in workers.values() if now - json.loads(w)["heartbeat"] < settings.claim_after_seconds)
         worker_gauge = GaugeMetricFamily("weft_workers_alive", "Workers with a recent heartbeat", value=alive)
         frames = GaugeMetricFamily("weft_frames_simulated", "Frames simulated by all workers",
