@@ -32,7 +32,7 @@ def main() -> None:
     elif not (os.environ.get("WEFT_API_KEYS") or os.environ.get("WEFT_API_KEYS_FILE")):
         sys.exit("set WEFT_API_KEYS or WEFT_API_KEYS_FILE (or use --local on a loopback host)")
     uvicorn.run(
-        "server.app:create_app", factory=True, host=args.host, port=args.port, workers=args.processes,
+        "server.main:create_app", factory=True, host=args.host, port=args.port, workers=args.processes,
         log_level=os.environ.get("WEFT_LOG_LEVEL", "warning").lower(),
     )
 
