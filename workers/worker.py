@@ -58,14 +58,21 @@ class Worker:
         log.info("worker %s started (redis %s)", self.name, self.settings.redis_url)
         while not self.stopping.is_set():
             try:
-                self._ensure_group()
-                entry = self._next_entry()
-                if entry is not None:
-                    self._process(*entry)
+                self.process_next()
             except redis.RedisError as exc:
                 log.warning("redis unavailable (%s); retrying", exc)
                 self.stopping.wait(0.5)
         self._deregister()
+
+    def process_next(self) -> str | None:
+        """Take one queue entry (waiting up to a second for one) and process it to its end;
+        the job id, or None if the queue was empty. Redis errors propagate."""
+        self._ensure_group()
+        entry = self._next_entry()
+        if entry is None:
+            return None
+        self._process(*entry)
+        return entry[1]
 
     def stop(self, *_: Any) -> None:
         self.stopping.set()
