@@ -6,9 +6,10 @@ from __future__ import annotations
 from typing import Any
 
 import redis
-from fastapi import FastAPI, HTTPException, Request
+from fastapi import FastAPI, Request
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
+from starlette.exceptions import HTTPException
 
 from api_schemas.service import ErrorResponse
 
@@ -32,7 +33,7 @@ async def api_error(_: Request, exc: ApiError) -> JSONResponse:
 
 
 async def http_error(_: Request, exc: HTTPException) -> JSONResponse:
-    return JSONResponse({"detail": str(exc.detail), "errors": []}, status_code=exc.status_code)
+    return JSONResponse({"detail": str(exc.detail), "errors": []}, status_code=exc.status_code, headers=exc.headers)
 
 
 async def validation_error(_: Request, exc: RequestValidationError) -> JSONResponse:
@@ -47,6 +48,7 @@ async def redis_down(_: Request, exc: redis.ConnectionError) -> JSONResponse:
 
 def install_error_handlers(app: FastAPI) -> None:
     app.add_exception_handler(ApiError, api_error)  # type: ignore[arg-type]
+    # Starlette's HTTPException (FastAPI's derives from it): also the router's own 404 and 405.
     app.add_exception_handler(HTTPException, http_error)  # type: ignore[arg-type]
     app.add_exception_handler(RequestValidationError, validation_error)  # type: ignore[arg-type]
     app.add_exception_handler(redis.ConnectionError, redis_down)  # type: ignore[arg-type]
