@@ -17,6 +17,10 @@ def pending(redis_db: redis.Redis) -> int:
     return int(redis_db.xpending(jobstore.QUEUE, jobstore.GROUP)["pending"])
 
 
+def in_state(redis_db: redis.Redis, state: str) -> set[str]:
+    return redis_db.smembers(jobstore.state_key(state))  # type: ignore[return-value]
+
+
 def events(redis_db: redis.Redis, job_id: str) -> list[tuple[str, str, dict]]:  # type: ignore[type-arg]
     return [(i, f["type"], json.loads(f["data"])) for i, f in redis_db.xrange(jobstore.events_key(job_id))]
 
@@ -35,9 +39,9 @@ def test_runs_a_job_to_success(worker: Worker, queue_job: Callable[..., str], re
     assert job["attempts"] == "1" and job["sim_frames"] == "3" and float(job["sum_solve"]) > 0
     assert [(i, t) for i, t, _ in events(redis_db, job_id)] == [("1-0", "frame"), ("2-0", "frame"), ("3-0", "frame"),
                                                           ("4-0", "frame"), ("5-0", "end")]
-    assert events(redis_db, job_id)[-1][2] == {"state": "succeeded", "frames_done": 4, "error_frame": None,
-                                         "error_reason": None}
-    assert redis_db.smembers(jobstore.state_key("succeeded")) == {job_id} and not redis_db.smembers(jobstore.state_key("running"))
+    end = {"state": "succeeded", "frames_done": 4, "error_frame": None, "error_reason": None}
+    assert events(redis_db, job_id)[-1][2] == end
+    assert in_state(redis_db, "succeeded") == {job_id} and in_state(redis_db, "running") == set()
     assert pending(redis_db) == 0, "the entry is acknowledged once the job is final"
     assert redis_db.hget(jobstore.STATS, "frames_simulated") == "3"
     with h5py.File(settings.cache_path(settings.job_dir(job_id)), "r") as f:
@@ -50,7 +54,8 @@ def test_drops_a_job_cancelled_while_queued(worker: Worker, queue_job: Callable[
     job_id = queue_job(state="cancelled")
     redis_db.smove(jobstore.state_key("queued"), jobstore.state_key("cancelled"), job_id)
     assert worker.process_next() == job_id
-    assert redis_db.hget(jobstore.job_key(job_id), "state") == "cancelled" and redis_db.hget(jobstore.job_key(job_id), "attempts") == "0"
+    job = redis_db.hgetall(jobstore.job_key(job_id))
+    assert job["state"] == "cancelled" and job["attempts"] == "0", "dropped without starting"
     assert pending(redis_db) == 0 and not settings.cache_path(settings.job_dir(job_id)).exists()
 
 
@@ -86,10 +91,11 @@ def test_a_stopping_worker_hands_the_job_back(worker: Worker, queue_job: Callabl
     worker.stopping.set()  # as after SIGTERM: the runner stops after the frame it is on (the first)
     assert worker.process_next() == job_id
     job = redis_db.hgetall(jobstore.job_key(job_id))
-    assert job["state"] == "queued" and job["worker"] == "" and job["attempts"] == "1" and job["frames_done"] == "1"
-    assert redis_db.smembers(jobstore.state_key("queued")) == {job_id} and not redis_db.smembers(jobstore.state_key("running"))
+    assert (job["state"], job["worker"], job["attempts"], job["frames_done"]) == ("queued", "", "1", "1")
+    assert in_state(redis_db, "queued") == {job_id} and in_state(redis_db, "running") == set()
     entries = redis_db.xrange(jobstore.QUEUE)
-    assert [e[1]["job"] for e in entries] == [job_id, job_id] and pending(redis_db) == 0, "old entry acked, new one queued"
+    assert [e[1]["job"] for e in entries] == [job_id, job_id], "a new entry queued"
+    assert pending(redis_db) == 0, "the old entry acknowledged"
 
     successor = Worker(settings, name="w-next")
     assert successor.process_next() == job_id
