@@ -1,6 +1,6 @@
 """Serve the API: ``python -m server --host 127.0.0.1 --port 8421 [--local]``.
 
-Settings come from WEFT_* environment variables (workers/settings.py). ``--local`` turns off
+Settings come from WEFT_* environment variables (``weft.jobstore.ServiceSettings``). ``--local`` turns off
 API keys and is refused unless the host is a loopback address.
 """
 
@@ -32,7 +32,7 @@ def main() -> None:
     elif not (os.environ.get("WEFT_API_KEYS") or os.environ.get("WEFT_API_KEYS_FILE")):
         sys.exit("set WEFT_API_KEYS or WEFT_API_KEYS_FILE (or use --local on a loopback host)")
     uvicorn.run(
-        "server.app:create_app", factory=True, host=args.host, port=args.port, workers=args.processes,
+        "server.main:create_app", factory=True, host=args.host, port=args.port, workers=args.processes,
         log_level=os.environ.get("WEFT_LOG_LEVEL", "warning").lower(),
     )
 

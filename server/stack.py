@@ -16,6 +16,7 @@ import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
+from typing import Self
 
 import httpx
 import redis
@@ -50,7 +51,88 @@ def _wait_ready(
         time.sleep(0.05)
 
 
-class Stack:
+def _stop_processes(procs: list[subprocess.Popen[bytes] | None]) -> None:
+    """SIGTERM the live ones, then wait for each (SIGKILL after 15 s)."""
+    live = [p for p in procs if p is not None and p.poll() is None]
+    for p in live:
+        p.send_signal(signal.SIGTERM)
+    for p in live:
+        try:
+            p.wait(timeout=15)
+        except subprocess.TimeoutExpired:
+            p.kill()
+            p.wait()
+
+
+class _Started:
+    """``with`` support for something that starts and stops: stopped on exit, and also when
+    starting it fails half-way."""
+
+    def start(self) -> Self:
+        raise NotImplementedError
+
+    def stop(self) -> None:
+        raise NotImplementedError
+
+    def __enter__(self) -> Self:
+        try:
+            return self.start()
+        except BaseException:
+            self.stop()
+            raise
+
+    def __exit__(self, *_: object) -> None:
+        self.stop()
+
+
+class RedisServer(_Started):
+    """A redis-server on a free loopback port, with its append-only file (fsync on every write)
+    in ``data``, so that a kill loses nothing acknowledged. Also the tests' real Redis."""
+
+    def __init__(self, data: Path, log: Path, port: int | None = None) -> None:
+        self.data = data
+        self.log = log
+        self.port = port or free_port()
+        self.proc: subprocess.Popen[bytes] | None = None
+
+    @property
+    def url(self) -> str:
+        return f"redis://127.0.0.1:{self.port}/0"
+
+    def start(self) -> RedisServer:
+        self.data.mkdir(parents=True, exist_ok=True)
+        self.log.parent.mkdir(parents=True, exist_ok=True)
+        with open(self.log, "ab") as log:
+            self.proc = subprocess.Popen(
+                [
+                    redis_server_binary(), "--port", str(self.port), "--bind", "127.0.0.1", "--dir", str(self.data),
+                    "--appendonly", "yes", "--appendfsync", "always", "--save", "", "--protected-mode", "yes",
+                    "--daemonize", "no", "--logfile", "",
+                ],
+                stdout=log, stderr=subprocess.STDOUT,
+            )
+        client = redis.Redis(port=self.port, socket_connect_timeout=0.5)
+
+        def ready() -> bool:  # answering, and done loading the append-only file
+            return bool(client.ping()) and client.info("persistence").get("loading", 0) == 0
+
+        try:
+            _wait_ready(ready, self.proc, redis.RedisError, 20, f"redis-server did not start (see {self.log})")
+        finally:
+            client.close()
+        return self
+
+    def kill(self) -> None:
+        """SIGKILL: no chance to save anything beyond the append-only file."""
+        assert self.proc is not None
+        self.proc.kill()
+        self.proc.wait()
+
+    def stop(self) -> None:
+        _stop_processes([self.proc])
+
+
+class Stack(_Started):
     def __init__(
         self,
         storage: Path,
@@ -65,10 +147,9 @@ class Stack:
         self.worker_count = workers
         self.api_keys = api_keys
         self.port = port or free_port()
-        self.redis_port = free_port()
         self.extra_env = env or {}
         self.log_dir = log_dir or self.storage / "logs"
-        self.redis_proc: subprocess.Popen[bytes] | None = None
+        self.redis = RedisServer(self.storage / "redis", self.log_dir / "redis.log")
         self.api_proc: subprocess.Popen[bytes] | None = None
         self.workers: list[subprocess.Popen[bytes]] = []
         self._worker_serial = 0
@@ -79,7 +160,11 @@ class Stack:
 
     @property
     def redis_url(self) -> str:
-        return f"redis://127.0.0.1:{self.redis_port}/0"
+        return self.redis.url
+
+    @property
+    def redis_proc(self) -> subprocess.Popen[bytes] | None:
+        return self.redis.proc
 
     def env(self) -> dict[str, str]:
         env = dict(os.environ)
@@ -102,27 +187,10 @@ class Stack:
         return self
 
     def start_redis(self) -> None:
-        data = self.storage / "redis"
-        data.mkdir(parents=True, exist_ok=True)
-        self.redis_proc = subprocess.Popen(
-            [
-                redis_server_binary(), "--port", str(self.redis_port), "--bind", "127.0.0.1", "--dir", str(data),
-                "--appendonly", "yes", "--appendfsync", "always", "--save", "", "--protected-mode", "yes",
-                "--daemonize", "no", "--logfile", "",
-            ],
-            stdout=self._log("redis"), stderr=subprocess.STDOUT,
-        )
-        client = redis.Redis(port=self.redis_port, socket_connect_timeout=0.5)
-
-        def ready() -> bool:  # answering, and done loading the append-only file
-            return bool(client.ping()) and client.info("persistence").get("loading", 0) == 0
-
-        _wait_ready(ready, self.redis_proc, redis.RedisError, 20, f"redis-server did not start (see {self.log_dir / 'redis.log'})")
+        self.redis.start()
 
     def kill_redis(self) -> None:
-        assert self.redis_proc is not None
-        self.redis_proc.kill()
-        self.redis_proc.wait()
+        self.redis.kill()
 
     def start_api(self) -> None:
         cmd = [sys.executable, "-m", "server", "--host", "127.0.0.1", "--port", str(self.port)]
@@ -146,32 +214,5 @@ class Stack:
         return next(p for p in self.workers if getattr(p, "name", None) == name)
 
     def stop(self) -> None:
-        procs = [p for p in self.workers if p.poll() is None]
-        for p in procs:
-            p.send_signal(signal.SIGTERM)
-        if self.api_proc is not None and self.api_proc.poll() is None:
-            self.api_proc.send_signal(signal.SIGTERM)
-            procs.append(self.api_proc)
-        for p in procs:
-            try:
-                p.wait(timeout=15)
-            except subprocess.TimeoutExpired:
-                p.kill()
-                p.wait()
-        if self.redis_proc is not None and self.redis_proc.poll() is None:
-            self.redis_proc.send_signal(signal.SIGTERM)
-            try:
-                self.redis_proc.wait(timeout=15)
-            except subprocess.TimeoutExpired:
-                self.redis_proc.kill()
-                self.redis_proc.wait()
-
-    def __enter__(self) -> Stack:
-        try:
-            return self.start()
-        except BaseException:
-            self.stop()
-            raise
-
-    def __exit__(self, *_: object) -> None:
-        self.stop()
+        _stop_processes([*self.workers, self.api_proc])
+        self.redis.stop()  # last: the API and workers may still write on their way out

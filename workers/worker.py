@@ -1,7 +1,7 @@
 """A weft worker: takes jobs from the Redis stream and runs them frame by frame.
 
 Each frame is appended to the job's HDF5 cache by ``ShotRunner`` and then published as an
-event (see ``workers.jobs``). A background thread heart-beats: it refreshes the worker's
+event (see ``weft.jobstore``). A background thread heart-beats: it refreshes the worker's
 record and re-claims the worker's stream entry so that its idle time stays short; an entry
 whose worker died (no heartbeat) goes idle and is taken over by another worker, which resumes
 the job from the solver state saved in the cache at the last finished frame.
@@ -21,10 +21,10 @@ from typing import Any
 import redis
 
 from api_schemas import FrameTelemetry
+from weft import jobstore
+from weft.jobstore import ServiceSettings
 from weft.runner import FrameRecord, ShotRunner, SolverFailure
 from weft.scene import ShotError, parse_shot, resolve_scene
-from workers import jobs
-from workers.settings import ServiceSettings
 
 log = logging.getLogger("weft.worker")
 
@@ -42,14 +42,14 @@ class Worker:
         self.settings = settings
         self.name = name or f"{socket.gethostname()}-{os.getpid()}"
         self.redis = redis.Redis.from_url(settings.redis_url, decode_responses=True, socket_timeout=30)
-        self.start_script = self.redis.register_script(jobs.START_LUA)
-        self.finish_script = self.redis.register_script(jobs.FINISH_LUA)
-        self.frame_script = self.redis.register_script(jobs.FRAME_LUA)
-        self.heartbeat_script = self.redis.register_script(jobs.HEARTBEAT_LUA)
+        self.start_script = self.redis.register_script(jobstore.START_LUA)
+        self.finish_script = self.redis.register_script(jobstore.FINISH_LUA)
+        self.frame_script = self.redis.register_script(jobstore.FRAME_LUA)
+        self.heartbeat_script = self.redis.register_script(jobstore.HEARTBEAT_LUA)
         self.stopping = threading.Event()
         self._lock = threading.Lock()
         self._current: tuple[str, str] | None = None  # (stream entry id, job id)
-        self._started = jobs.now()
+        self._started = jobstore.now()
 
     # -- lifecycle --------------------------------------------------------------------------
     def run_forever(self) -> None:
@@ -58,21 +58,28 @@ class Worker:
         log.info("worker %s started (redis %s)", self.name, self.settings.redis_url)
         while not self.stopping.is_set():
             try:
-                self._ensure_group()
-                entry = self._next_entry()
-                if entry is not None:
-                    self._process(*entry)
+                self.process_next()
             except redis.RedisError as exc:
                 log.warning("redis unavailable (%s); retrying", exc)
                 self.stopping.wait(0.5)
         self._deregister()
+
+    def process_next(self) -> str | None:
+        """Take one queue entry (waiting up to a second for one) and process it to its end;
+        the job id, or None if the queue was empty. Redis errors propagate."""
+        self._ensure_group()
+        entry = self._next_entry()
+        if entry is None:
+            return None
+        self._process(*entry)
+        return entry[1]
 
     def stop(self, *_: Any) -> None:
         self.stopping.set()
 
     def _ensure_group(self) -> None:
         try:
-            self.redis.xgroup_create(jobs.QUEUE, jobs.GROUP, id="0", mkstream=True)
+            self.redis.xgroup_create(jobstore.QUEUE, jobstore.GROUP, id="0", mkstream=True)
         except redis.ResponseError as exc:
             if "BUSYGROUP" not in str(exc):
                 raise
@@ -80,12 +87,12 @@ class Worker:
     def _next_entry(self) -> tuple[str, str] | None:
         """A stale entry of a dead worker first, else a new one (blocking up to one second)."""
         claim_ms = int(self.settings.claim_after_seconds * 1000)
-        _, claimed, _ = self.redis.xautoclaim(jobs.QUEUE, jobs.GROUP, self.name, claim_ms, "0-0", count=1)
+        _, claimed, _ = self.redis.xautoclaim(jobstore.QUEUE, jobstore.GROUP, self.name, claim_ms, "0-0", count=1)
         for entry_id, fields in claimed:
             if fields:  # an entry trimmed from the stream comes back without fields
                 return entry_id, fields["job"]
-            self.redis.xack(jobs.QUEUE, jobs.GROUP, entry_id)
-        read = self.redis.xreadgroup(jobs.GROUP, self.name, {jobs.QUEUE: ">"}, count=1, block=1000)
+            self.redis.xack(jobstore.QUEUE, jobstore.GROUP, entry_id)
+        read = self.redis.xreadgroup(jobstore.GROUP, self.name, {jobstore.QUEUE: ">"}, count=1, block=1000)
         for _, entries in read or []:
             for entry_id, fields in entries:
                 return entry_id, fields["job"]
@@ -105,30 +112,30 @@ class Worker:
             current = self._current
         record = {
             "name": self.name, "pid": os.getpid(), "host": socket.gethostname(), "started": self._started,
-            "heartbeat": jobs.now(), "job": current[1] if current else None,
+            "heartbeat": jobstore.now(), "job": current[1] if current else None,
         }
         pipe = self.redis.pipeline(transaction=False)
-        pipe.hset(jobs.WORKERS, self.name, json.dumps(record))
+        pipe.hset(jobstore.WORKERS, self.name, json.dumps(record))
         pipe.execute()
         if current is not None:
             # Re-claiming our own entry resets its idle time: it is not taken over while we live.
             self.heartbeat_script(
-                keys=[jobs.job_key(current[1]), jobs.QUEUE], args=[self.name, record["heartbeat"], current[0], jobs.GROUP]
+                keys=[jobstore.job_key(current[1]), jobstore.QUEUE], args=[self.name, record["heartbeat"], current[0], jobstore.GROUP]
             )
 
     def _deregister(self) -> None:
         try:
-            self.redis.hdel(jobs.WORKERS, self.name)
+            self.redis.hdel(jobstore.WORKERS, self.name)
         except redis.RedisError:
             pass
 
     # -- one job ----------------------------------------------------------------------------
     def _process(self, entry_id: str, job_id: str) -> None:
-        key = jobs.job_key(job_id)
-        state = self.start_script(keys=[key, jobs.events_key(job_id)], args=[self.name, jobs.now(), job_id])
+        key = jobstore.job_key(job_id)
+        state = self.start_script(keys=[key, jobstore.events_key(job_id)], args=[self.name, jobstore.now(), job_id])
         if state != "running":
             log.info("job %s is %s; dropping its queue entry", job_id, state)
-            self.redis.xack(jobs.QUEUE, jobs.GROUP, entry_id)
+            self.redis.xack(jobstore.QUEUE, jobstore.GROUP, entry_id)
             return
         with self._lock:
             self._current = (entry_id, job_id)
@@ -145,10 +152,7 @@ class Worker:
         except Requeue:
             # Shutting down: hand the job back to the queue at once (no claim timeout).
             pipe = self.redis.pipeline(transaction=True)
-            pipe.hset(key, mapping={"state": "queued", "worker": ""})
-            pipe.smove(jobs.state_key("running"), jobs.state_key("queued"), job_id)
-            pipe.xadd(jobs.QUEUE, {"job": job_id})
-            pipe.xack(jobs.QUEUE, jobs.GROUP, entry_id)
+            jobstore.requeue(pipe, job_id, entry_id)
             pipe.execute()
         except Superseded:
             log.warning("job %s was taken over by another worker; leaving it", job_id)
@@ -185,7 +189,7 @@ class Worker:
         def should_stop() -> bool:
             if self.stopping.is_set():
                 raise Requeue
-            cancel, worker = self.redis.hmget(jobs.job_key(job_id), ["cancel_requested", "worker"])
+            cancel, worker = self.redis.hmget(jobstore.job_key(job_id), ["cancel_requested", "worker"])
             if worker != self.name:
                 raise Superseded
             return cancel == "1"
@@ -206,11 +210,11 @@ class Worker:
         self._finish(entry_id, job_id, state)
 
     def _publish(self, job_id: str, index: int, frames_total: int, t: FrameTelemetry) -> None:
-        payload = json.dumps({"index": index, "frames_total": frames_total, "published_at": jobs.now(), **t.model_dump()})
+        payload = json.dumps({"index": index, "frames_total": frames_total, "published_at": jobstore.now(), **t.model_dump()})
         self.frame_script(
-            keys=[jobs.job_key(job_id), jobs.events_key(job_id)],
+            keys=[jobstore.job_key(job_id), jobstore.events_key(job_id)],
             args=[
-                jobs.frame_event_id(index), payload, index + 1, t.build_seconds, t.solve_seconds,
+                jobstore.frame_event_id(index), payload, index + 1, t.build_seconds, t.solve_seconds,
                 t.collision_seconds, t.gia_seconds, t.total_seconds, 1 if t.substeps > 0 else 0,
             ],
         )
@@ -233,12 +237,12 @@ class Worker:
     def _mark_resumed(self, job_id: str, frame: int, index: int) -> None:
         payload = json.dumps({"resumed_from_frame": frame, "worker": self.name})
         pipe = self.redis.pipeline(transaction=True)
-        pipe.hset(jobs.job_key(job_id), mapping={"resumed_from": frame})
-        pipe.xadd(jobs.events_key(job_id), {"type": "resumed", "data": payload}, id=f"{index}-*")
+        pipe.hset(jobstore.job_key(job_id), mapping={"resumed_from": frame})
+        pipe.xadd(jobstore.events_key(job_id), {"type": "resumed", "data": payload}, id=f"{index}-*")
         pipe.execute()
 
     def _finish(self, entry_id: str, job_id: str, state: str, error_frame: int | None = None, error_reason: str = "") -> None:
-        key = jobs.job_key(job_id)
+        key = jobstore.job_key(job_id)
         fields: list[Any] = []
         if error_frame is not None:
             fields += ["error_frame", error_frame]
@@ -251,12 +255,12 @@ class Worker:
             "error_frame": error_frame, "error_reason": error_reason or None,
         })
         done = self.finish_script(
-            keys=[key, jobs.events_key(job_id)],
-            args=[state, jobs.now(), payload, jobs.final_event_id(frames_total), job_id, self.name, *fields],
+            keys=[key, jobstore.events_key(job_id)],
+            args=[state, jobstore.now(), payload, jobstore.final_event_id(frames_total), job_id, self.name, *fields],
         )
         if done == -1:
             raise Superseded
-        self.redis.xack(jobs.QUEUE, jobs.GROUP, entry_id)
+        self.redis.xack(jobstore.QUEUE, jobstore.GROUP, entry_id)
         log.info("job %s %s", job_id, state)
 
 

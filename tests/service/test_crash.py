@@ -7,7 +7,6 @@ import signal
 import subprocess
 import sys
 import threading
-import time
 from pathlib import Path
 
 import h5py
@@ -125,7 +124,7 @@ def test_redis_restart_loses_no_queued_job(own_stack: Stack) -> None:
 def test_redis_killed_mid_job(own_stack: Stack) -> None:
     """Redis dies while a worker runs a job: the worker waits for it, takes the job up again
     from its cache, and the event stream (kept open by the API) still has every frame once."""
-    own_stack.start_worker()
+    worker_log = own_stack.log_dir / f"{own_stack.start_worker().name}.log"  # type: ignore[attr-defined]
     with client(own_stack, ALICE) as c:
         job_id = c.post("/v1/jobs", json=slow_shot("redis-mid", frames=40)).json()["id"]
         wait_for(lambda: job_state(c, job_id)["frames_done"] >= 3, what="3 frames")
@@ -140,7 +139,9 @@ def test_redis_killed_mid_job(own_stack: Stack) -> None:
         follower.start()
         assert connected.wait(30)
         own_stack.kill_redis()
-        time.sleep(0.5)
+        # Redis stays down until the worker has run into it (not a fixed sleep that may be too short).
+        wait_for(lambda: "redis unavailable" in worker_log.read_text(), timeout=30, what="the worker to see Redis down")
+        assert c.get("/readyz").status_code == 503
         own_stack.start_redis()
         follower.join(timeout=120)
         assert not follower.is_alive()

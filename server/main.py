@@ -1,0 +1,65 @@
+"""The weft simulation service: a FastAPI app over Redis (job records, queue, events) and a
+storage directory (uploaded assets and HDF5 caches). Run with ``python -m server``.
+
+``create_app(settings)`` builds the app; the routes live in ``server/routes/`` (one router per
+resource), their dependencies (settings, Redis, auth, the caller's job) in ``server/deps.py``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import AsyncIterator
+from contextlib import asynccontextmanager
+from typing import Any
+
+import redis
+import redis.asyncio as aioredis
+from fastapi import FastAPI
+
+from api_schemas import Shot
+from server.errors import install_error_handlers
+from server.routes import events, jobs, ops, results
+from weft import jobstore
+from weft.jobstore import ServiceSettings
+
+
+@asynccontextmanager
+async def lifespan(app: FastAPI) -> AsyncIterator[None]:
+    settings: ServiceSettings = app.state.settings
+    app.state.redis = aioredis.Redis.from_url(settings.redis_url, decode_responses=True)
+    app.state.scripts = {"cancel": app.state.redis.register_script(jobstore.CANCEL_LUA)}
+    settings.storage.mkdir(parents=True, exist_ok=True)
+    try:
+        await app.state.redis.xgroup_create(jobstore.QUEUE, jobstore.GROUP, id="0", mkstream=True)
+    except redis.RedisError:
+        pass  # exists already, or Redis is not up yet (the workers create it too)
+    yield
+    await app.state.redis.aclose()
+
+
+def create_app(settings: ServiceSettings | None = None) -> FastAPI:
+    """The API app; settings from the WEFT_* environment when not given."""
+    app = FastAPI(
+        title="weft simulation service",
+        version="1",
+        description="Submit cloth shots, follow them frame by frame, fetch their HDF5 caches. See docs/service.md.",
+        lifespan=lifespan,
+    )
+    app.state.settings = settings or ServiceSettings.from_env()
+    install_error_handlers(app)
+    ops.install_request_metrics(app)
+    for module in (jobs, results, events, ops):
+        app.include_router(module.router)
+
+    generate_openapi = app.openapi
+
+    def openapi_with_shot() -> dict[str, Any]:
+        """The generated spec plus the Shot schema that POST /v1/jobs takes as its JSON body."""
+        if app.openapi_schema is None:
+            spec = generate_openapi()
+            shot_schema = Shot.model_json_schema(ref_template="#/components/schemas/{model}")
+            spec["components"]["schemas"].update(shot_schema.pop("$defs", {}))
+            spec["components"]["schemas"]["Shot"] = shot_schema
+        return app.openapi_schema  # type: ignore[return-value]
+
+    app.openapi = openapi_with_shot  # type: ignore[method-assign]
+    return app

@@ -1,0 +1,60 @@
+"""A job's server-sent event stream."""
+
+from __future__ import annotations
+
+import asyncio
+import re
+from collections.abc import AsyncIterator
+from typing import Annotated
+
+import redis
+from fastapi import APIRouter, Header, Request
+from fastapi.responses import StreamingResponse
+
+from server.deps import JobId, Owner, Store, load_job
+from server.errors import ERRORS, ApiError
+from weft import jobstore
+
+router = APIRouter()
+
+EVENT_ID = re.compile(r"^\d{1,19}-\d{1,19}$")
+
+
+@router.get(
+    "/v1/jobs/{job_id}/events", responses={**ERRORS, 200: {"content": {"text/event-stream": {}}}},
+    summary="Server-sent events: one 'frame' event per finished frame, then an 'end' event with the final state",
+    response_class=StreamingResponse,
+)
+async def job_events(
+    request: Request,
+    job_id: JobId,
+    r: Store,
+    owner: Owner,
+    last_event_id: Annotated[str | None, Header(description="Resume after this event id.")] = None,
+) -> StreamingResponse:
+    await load_job(r, owner, job_id)
+    start = last_event_id or "0-0"
+    if not EVENT_ID.match(start):
+        raise ApiError(400, "Last-Event-ID must be an event id like '12-0'")
+
+    async def stream() -> AsyncIterator[str]:
+        last = start
+        yield "retry: 1000\n\n"
+        while not await request.is_disconnected():
+            try:
+                found = await r.xread({jobstore.events_key(job_id): last}, count=200, block=2000)
+            except redis.ConnectionError:  # Redis restarting: keep the client, retry
+                yield ": job store unavailable, retrying\n\n"
+                await asyncio.sleep(0.5)
+                continue
+            if not found:
+                yield ": keep-alive\n\n"
+                continue
+            for _, entries in found:
+                for event_id, fields in entries:
+                    last = event_id
+                    yield f"id: {event_id}\nevent: {fields['type']}\ndata: {fields['data']}\n\n"
+                    if fields["type"] == "end":
+                        return
+
+    return StreamingResponse(stream(), media_type="text/event-stream", headers={"Cache-Control": "no-cache"})

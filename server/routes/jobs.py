@@ -1,0 +1,196 @@
+"""Jobs: submit, list, read one, cancel."""
+
+from __future__ import annotations
+
+import json
+import re
+import shutil
+import uuid
+from typing import Annotated, Any
+
+import anyio
+from fastapi import APIRouter, Depends, Header, Query, Request
+from fastapi.responses import JSONResponse, Response
+from redis.commands.core import AsyncScript
+
+from api_schemas.service import Job, JobCreated, JobError, JobList, JobState, TimingSummary
+from server.deps import JobId, Owner, Settings, Store, load_job
+from server.errors import ERRORS, ApiError
+from server.uploads import UploadError, read_limited, receive_multipart
+from server.validation import validate_shot
+from weft import jobstore
+
+IDEMPOTENCY = re.compile(r"^[A-Za-z0-9_.:-]{1,128}$")
+IDEMPOTENCY_TTL = 24 * 3600
+
+router = APIRouter()
+
+
+def cancel_script(request: Request) -> AsyncScript:
+    return request.app.state.scripts["cancel"]  # type: ignore[no-any-return]
+
+
+def job_url(request: Request, job_id: str) -> str:
+    return str(request.url_for("get_job", job_id=job_id))
+
+
+def to_job(request: Request, h: dict[str, str]) -> Job:
+    timing = None
+    sim_frames = int(h.get("sim_frames", 0))
+    if sim_frames:
+        timing = TimingSummary(
+            frames=sim_frames,
+            **{f"{k}_seconds": float(h.get(f"sum_{k}", 0.0)) / sim_frames for k in jobstore.TIMING_KEYS},
+        )
+    error = None
+    if h.get("error_reason"):
+        error = JobError(frame=int(h["error_frame"]) if h.get("error_frame") else None, reason=h["error_reason"])
+    return Job(
+        id=h["id"], url=job_url(request, h["id"]), name=h["name"], state=h["state"],  # type: ignore[arg-type]
+        frames_done=int(h.get("frames_done", 0)), frames_total=int(h["frames_total"]),
+        frame_range=(int(h["frame_first"]), int(h["frame_last"])), vertices=int(h["vertices"]),
+        worker=h.get("worker") or None, attempts=int(h.get("attempts", 0)),
+        resumed_from=int(h["resumed_from"]) if h.get("resumed_from") else None,
+        cancel_requested=h.get("cancel_requested") == "1", created=float(h["created"]),
+        started=float(h["started"]) if h.get("started") else None,
+        finished=float(h["finished"]) if h.get("finished") else None, timing=timing, error=error,
+    )
+
+
+def duplicate_response(request: Request, job_id: str, state: str | None) -> JSONResponse:
+    url = job_url(request, job_id)
+    out = JobCreated(id=job_id, url=url, state=state or "queued", duplicate=True)  # type: ignore[arg-type]
+    return JSONResponse(out.model_dump(), status_code=200, headers={"Location": url})
+
+
+SUBMIT_BODY = {
+    "requestBody": {
+        "required": True,
+        "description": "The shot as JSON (inline meshes), or multipart with a 'shot' part (JSON) and asset "
+        "files whose file names are the shot's relative asset paths.",
+        "content": {
+            "application/json": {"schema": {"$ref": "#/components/schemas/Shot"}},
+            "multipart/form-data": {
+                "schema": {
+                    "type": "object",
+                    "required": ["shot"],
+                    "properties": {
+                        "shot": {"type": "string", "description": "The shot document, JSON."},
+                        "assets": {"type": "array", "items": {"type": "string", "format": "binary"}},
+                    },
+                }
+            },
+        },
+    }
+}
+
+
+@router.post(
+    "/v1/jobs", status_code=201, response_model=JobCreated, responses=ERRORS, openapi_extra=SUBMIT_BODY,
+    summary="Submit a shot",
+)
+async def submit_job(
+    request: Request,
+    r: Store,
+    owner: Owner,
+    settings: Settings,
+    idempotency_key: Annotated[str | None, Header(description="Makes a resubmission return the first job.")] = None,
+) -> Response:
+    if idempotency_key is not None and not IDEMPOTENCY.match(idempotency_key):
+        raise ApiError(400, "Idempotency-Key must be 1-128 characters of letters, digits, '_', '-', '.', ':'")
+    if idempotency_key:
+        existing = await r.get(jobstore.idempotency_key(owner, idempotency_key))
+        if existing:
+            return duplicate_response(request, existing, await r.hget(jobstore.job_key(existing), "state"))
+    content_type = request.headers.get("content-type", "")
+    declared = request.headers.get("content-length")
+    if declared and declared.isdigit() and int(declared) > settings.max_upload_bytes:
+        raise ApiError(413, f"upload of {declared} bytes exceeds the limit of {settings.max_upload_bytes} bytes")
+    job_id = uuid.uuid4().hex
+    job_dir = settings.job_dir(job_id)
+    assets = settings.assets_dir(job_dir)
+    assets.mkdir(parents=True)
+    try:
+        if content_type.startswith("multipart/form-data"):
+            upload = await receive_multipart(
+                request.stream(), content_type, assets, settings.max_upload_bytes, settings.max_json_bytes,
+                settings.max_files,
+            )
+            body, uploaded = upload.shot_bytes or b"", set(upload.assets)
+        elif content_type.startswith("application/json"):
+            body, uploaded = await read_limited(request.stream(), settings.max_json_bytes), set()
+        else:
+            raise ApiError(415, f"unsupported Content-Type {content_type!r}: use application/json or multipart/form-data")
+        shot, vertices = await anyio.to_thread.run_sync(validate_shot, body, assets, uploaded, settings)
+        (job_dir / "shot.json").write_text(shot.model_dump_json())
+        if idempotency_key:
+            idem = jobstore.idempotency_key(owner, idempotency_key)
+            if not await r.set(idem, job_id, nx=True, ex=IDEMPOTENCY_TTL):
+                existing = await r.get(idem)
+                shutil.rmtree(job_dir, ignore_errors=True)
+                return duplicate_response(request, existing, await r.hget(jobstore.job_key(existing), "state"))
+        record: dict[str, Any] = {
+            "id": job_id, "owner": owner, "name": shot.name, "state": "queued", "frames_done": 0,
+            "frames_total": shot.frame_count, "frame_first": shot.frame_range[0],
+            "frame_last": shot.frame_range[1], "vertices": vertices, "created": jobstore.now(), "attempts": 0,
+        }
+        pipe = r.pipeline(transaction=True)
+        jobstore.queue_new_job(pipe, record)
+        await pipe.execute()
+    except UploadError as exc:
+        shutil.rmtree(job_dir, ignore_errors=True)
+        raise ApiError(exc.status, exc.problem, [{"field": exc.field, "problem": exc.problem}]) from None
+    except BaseException:
+        shutil.rmtree(job_dir, ignore_errors=True)
+        raise
+    url = job_url(request, job_id)
+    body_out = JobCreated(id=job_id, url=url, state="queued")
+    return JSONResponse(body_out.model_dump(), status_code=201, headers={"Location": url})
+
+
+@router.get("/v1/jobs", response_model=JobList, responses=ERRORS, summary="List your jobs, newest first")
+async def list_jobs(
+    request: Request,
+    r: Store,
+    owner: Owner,
+    state: Annotated[JobState | None, Query(description="Only jobs in this state.")] = None,
+    offset: Annotated[int, Query(ge=0)] = 0,
+    limit: Annotated[int, Query(ge=1, le=500)] = 50,
+) -> JobList:
+    index = jobstore.owner_key(owner)
+    if state is None:  # one page straight from the sorted index
+        total = await r.zcard(index)
+        ids = await r.zrevrange(index, offset, offset + limit - 1)
+    else:
+        ids = await r.zrevrange(index, 0, -1)
+    pipe = r.pipeline(transaction=False)
+    for job_id in ids:
+        pipe.hgetall(jobstore.job_key(job_id))
+    records = [h for h in await pipe.execute() if h and (state is None or h.get("state") == state)]
+    if state is not None:
+        total = len(records)
+        records = records[offset : offset + limit]
+    next_offset = offset + limit if offset + limit < total else None
+    return JobList(jobs=[to_job(request, h) for h in records], total=total, offset=offset, limit=limit,
+                   next_offset=next_offset)
+
+
+@router.get("/v1/jobs/{job_id}", response_model=Job, responses=ERRORS, summary="A job's state and progress")
+async def get_job(request: Request, job_id: JobId, r: Store, owner: Owner) -> Job:
+    return to_job(request, await load_job(r, owner, job_id))
+
+
+@router.post("/v1/jobs/{job_id}/cancel", response_model=Job, responses=ERRORS, summary="Cancel a job")
+async def cancel_job(
+    request: Request, job_id: JobId, r: Store, owner: Owner, cancel: Annotated[AsyncScript, Depends(cancel_script)]
+) -> Job:
+    h = await load_job(r, owner, job_id)
+    payload = json.dumps({"state": "cancelled", "frames_done": int(h.get("frames_done", 0)),
+                          "error_frame": None, "error_reason": None})
+    result = await cancel(
+        keys=[jobstore.job_key(job_id), jobstore.events_key(job_id)],
+        args=[jobstore.now(), payload, jobstore.final_event_id(int(h["frames_total"])), job_id],
+    )
+    if result in ("succeeded", "failed"):
+        raise ApiError(409, f"job {job_id} already {result}; nothing to cancel")
+    return to_job(request, await load_job(r, owner, job_id))

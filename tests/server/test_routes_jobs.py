@@ -1,0 +1,147 @@
+"""server/routes/jobs.py: submit, list, read, cancel."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable
+
+import redis
+from routes_support import MISSING_JOB, Api, assert_error, small_shot
+
+from weft import jobstore
+from weft.jobstore import ServiceSettings
+
+JOB = f"/v1/jobs/{MISSING_JOB}"
+
+
+# -- POST /v1/jobs ------------------------------------------------------------------------------
+def test_submit_queues_the_job(alice: Api, redis_db: redis.Redis, settings: ServiceSettings) -> None:
+    r = alice.post("/v1/jobs", json=small_shot("queued", frames=4))
+    assert r.status_code == 201, r.text
+    job_id = r.json()["id"]
+    assert r.json()["state"] == "queued" and r.headers["location"].endswith(f"/v1/jobs/{job_id}")
+    record = redis_db.hgetall(jobstore.job_key(job_id))
+    assert record["state"] == "queued" and record["frames_total"] == "4" and record["vertices"] == "36"
+    assert redis_db.sismember(jobstore.state_key("queued"), job_id)
+    assert [fields["job"] for _, fields in redis_db.xrange(jobstore.QUEUE)] == [job_id]
+    assert json.loads((settings.job_dir(job_id) / "shot.json").read_text())["name"] == "queued"
+
+
+def test_submit_multipart_with_an_asset(alice: Api) -> None:
+    shot = small_shot("upload")
+    shot["cloth"][0]["mesh"] = {"path": "meshes/sheet.obj"}
+    shot["cloth"][0]["pins"] = [{"vertices": [0, 1]}]
+    obj = b"v 0 0 0\nv 1 0 0\nv 0 0 1\nv 1 0 1\nf 1 2 3\nf 2 4 3\n"
+    r = alice.post("/v1/jobs", files=[("shot", ("shot.json", json.dumps(shot), "application/json")),
+                                      ("assets", ("meshes/sheet.obj", obj, "text/plain"))])
+    assert r.status_code == 201, r.text
+    assert alice.get(r.headers["location"]).json()["vertices"] == 4
+
+
+def test_submit_idempotency_key_returns_the_first_job(alice: Api, bob: Api) -> None:
+    key = {"Idempotency-Key": "render-42"}
+    first = alice.post("/v1/jobs", json=small_shot(), headers=key)
+    again = alice.post("/v1/jobs", json=small_shot(), headers=key)
+    assert first.status_code == 201 and again.status_code == 200
+    assert again.json() == {**first.json(), "duplicate": True}
+    other = bob.post("/v1/jobs", json=small_shot(), headers=key)
+    assert other.status_code == 201 and other.json()["id"] != first.json()["id"]
+
+
+def test_submit_bad_field_names_it_and_leaves_nothing(alice: Api,
+                                                      settings: ServiceSettings, redis_db: redis.Redis) -> None:
+    assert_error(alice.post("/v1/jobs", json={**small_shot(), "fps": "fast"}), 422, "fps")
+    assert_error(alice.post("/v1/jobs", json={**small_shot(), "colour": "red"}), 422, "colour")
+    assert_error(alice.post("/v1/jobs", json=small_shot(frames=80)), 422, "frame_range", "exceeds the limit of 50")
+    assert_error(alice.post("/v1/jobs", content=b"name: x", headers={"Content-Type": "text/yaml"}), 415, "Content-Type")
+    assert_error(alice.post("/v1/jobs", json=small_shot(), headers={"Idempotency-Key": "x" * 300}), 400, "Idempotency-Key")
+    assert_error(alice.post("/v1/jobs", content=b"{" + b" " * 150_000 + b"}",
+                     headers={"Content-Type": "application/json"}), 413, "limit")
+    assert list((settings.storage / "jobs").iterdir()) == [], "a refused submission leaves no folder"
+    assert redis_db.xlen(jobstore.QUEUE) == 0
+
+
+def test_submit_needs_a_key(check_auth: Callable[..., None], redis_db: redis.Redis) -> None:
+    check_auth("POST", "/v1/jobs", json=small_shot())
+    assert redis_db.xlen(jobstore.QUEUE) == 0
+
+
+# -- GET /v1/jobs -------------------------------------------------------------------------------
+def test_list_own_jobs_newest_first_paginated(alice: Api, bob: Api) -> None:
+    ids = [alice.submit(small_shot(f"job{i}")) for i in range(3)]
+    bobs = bob.submit()
+    listed = alice.get("/v1/jobs").json()
+    assert [j["id"] for j in listed["jobs"]] == ids[::-1] and listed["total"] == 3
+    page = alice.get("/v1/jobs", params={"limit": 2, "offset": 1}).json()
+    assert [j["id"] for j in page["jobs"]] == ids[1::-1] and page["next_offset"] is None
+    first = alice.get("/v1/jobs", params={"limit": 2}).json()
+    assert first["next_offset"] == 2
+    assert alice.get("/v1/jobs", params={"state": "queued"}).json()["total"] == 3
+    assert alice.get("/v1/jobs", params={"state": "succeeded"}).json()["jobs"] == []
+    assert [j["id"] for j in bob.get("/v1/jobs").json()["jobs"]] == [bobs]
+
+
+def test_list_bad_query_names_the_field(alice: Api) -> None:
+    assert_error(alice.get("/v1/jobs", params={"state": "exploded"}), 422, "query.state")
+    assert_error(alice.get("/v1/jobs", params={"offset": -1}), 422, "query.offset", "greater than or equal to 0")
+    assert_error(alice.get("/v1/jobs", params={"limit": 501}), 422, "query.limit", "less than or equal to 500")
+
+
+def test_list_needs_a_key(check_auth: Callable[..., None]) -> None:
+    check_auth("GET", "/v1/jobs")
+
+
+# -- GET /v1/jobs/{id} --------------------------------------------------------------------------
+def test_get_job(alice: Api) -> None:
+    job_id = alice.submit(small_shot("one", frames=5))
+    job = alice.get(f"/v1/jobs/{job_id}").json()
+    assert job["id"] == job_id and job["name"] == "one" and job["state"] == "queued"
+    assert job["frames_done"] == 0 and job["frames_total"] == 5 and job["frame_range"] == [1, 5]
+    assert job["timing"] is None and job["error"] is None and job["url"].endswith(f"/v1/jobs/{job_id}")
+
+
+def test_get_job_after_a_worker_ran_it(alice: Api, finished_job: str) -> None:
+    job = alice.get(f"/v1/jobs/{finished_job}").json()
+    assert job["state"] == "succeeded" and job["frames_done"] == 5 and job["worker"] == "test-worker"
+    assert job["attempts"] == 1 and job["timing"]["frames"] == 4 and job["timing"]["solve_seconds"] > 0
+
+
+def test_get_job_bad_unknown_or_foreign_id(alice: Api, bob: Api) -> None:
+    assert_error(alice.get("/v1/jobs/not-a-job"), 422, "path.job_id", "pattern")
+    assert_error(alice.get(JOB), 404, MISSING_JOB, "")
+    bobs = bob.submit()
+    assert_error(alice.get(f"/v1/jobs/{bobs}"), 404, f"no job {bobs}")
+
+
+def test_get_job_needs_a_key(check_auth: Callable[..., None], alice: Api) -> None:
+    check_auth("GET", f"/v1/jobs/{alice.submit()}")
+
+
+# -- POST /v1/jobs/{id}/cancel ------------------------------------------------------------------
+def test_cancel_queued_job(alice: Api, redis_db: redis.Redis) -> None:
+    job_id = alice.submit()
+    r = alice.post(f"/v1/jobs/{job_id}/cancel")
+    assert r.status_code == 200 and r.json()["state"] == "cancelled" and r.json()["cancel_requested"] is True
+    assert redis_db.sismember(jobstore.state_key("cancelled"), job_id)
+    ((event_id, fields),) = redis_db.xrange(jobstore.events_key(job_id))
+    assert event_id == jobstore.final_event_id(5) and fields["type"] == "end"
+    again = alice.post(f"/v1/jobs/{job_id}/cancel")
+    assert again.status_code == 200 and again.json()["state"] == "cancelled"
+
+
+def test_cancel_finished_job_conflicts(alice: Api, finished_job: str) -> None:
+    assert_error(alice.post(f"/v1/jobs/{finished_job}/cancel"), 409, "already succeeded")
+
+
+def test_cancel_bad_unknown_or_foreign_id(alice: Api, bob: Api, redis_db: redis.Redis) -> None:
+    assert_error(alice.post("/v1/jobs/XYZ/cancel"), 422, "path.job_id")
+    assert_error(alice.post(f"{JOB}/cancel"), 404, "no job")
+    bobs = bob.submit()
+    assert_error(alice.post(f"/v1/jobs/{bobs}/cancel"), 404, "no job")
+    assert redis_db.hget(jobstore.job_key(bobs), "state") == "queued"
+
+
+def test_cancel_needs_a_key(check_auth: Callable[..., None], alice: Api, redis_db: redis.Redis) -> None:
+    job_id = alice.submit()
+    check_auth("POST", f"/v1/jobs/{job_id}/cancel")
+    assert redis_db.hget(jobstore.job_key(job_id), "state") == "queued"
