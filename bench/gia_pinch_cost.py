@@ -12,7 +12,7 @@ os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 
 import numpy as np  # noqa: E402
 
-from weft.collision_scenes import box_pinch_shot  # noqa: E402
+from scenes.collision import box_pinch_shot  # noqa: E402
 from weft.runner import ShotRunner  # noqa: E402
 from weft.scene import parse_shot, resolve_scene  # noqa: E402
 

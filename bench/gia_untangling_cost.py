@@ -15,7 +15,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))
 
 from test_collisions import simulate  # noqa: E402
-from weft.gia_scenes import R, fold_shot  # noqa: E402
+from scenes.gia import R, fold_shot  # noqa: E402
 
 
 def main() -> None:

@@ -68,7 +68,7 @@ class PathRecord:
 
 
 def sheet_document(side: int) -> dict[str, Any]:
-    from weft.scene_builders import sheet_shot
+    from scenes.builders import sheet_shot
 
     width = SPACING * (side - 1)
     return sheet_shot(

@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from weft.cache import describe_cache, open_cache_reader
-from weft.scene_builders import sheet_shot
+from scenes.builders import sheet_shot
 
 
 def write_shot(tmp_path: Path, frames: int, n: int = 12, substeps: int = 2) -> Path:

@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 from weft import _solver
-from weft.collision_scenes import drop_shot, floor_fold_shot, thin_bar_shot, twist_shot
+from scenes.collision import drop_shot, floor_fold_shot, thin_bar_shot, twist_shot
 from weft.scene import build_setup, collision_switches
-from weft.scene_builders import grid_sheet, inline_mesh, sheet_shot
+from scenes.builders import grid_sheet, inline_mesh, sheet_shot
 
 from conftest import make_scene
 

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from weft import _solver
-from weft.scene_builders import sheet_shot
+from scenes.builders import sheet_shot
 
 from conftest import make_sim
 

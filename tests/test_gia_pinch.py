@@ -10,10 +10,10 @@ import pytest
 
 from weft import _solver
 from weft.cache import open_cache_reader
-from weft.collision_scenes import box_mesh, box_pinch_shot
+from scenes.collision import box_mesh, box_pinch_shot
 from weft.runner import ShotRunner
 from weft.scene import bodies_intersect_each_other, build_setup, collision_switches
-from weft.scene_builders import inline_mesh, sheet_shot
+from scenes.builders import inline_mesh, sheet_shot
 
 from conftest import make_scene
 from test_collisions import convex_depth

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from weft.cache import open_cache_reader
-from weft.gia_scenes import RADIUS, bone_shot, through_shot
+from scenes.gia import RADIUS, bone_shot, through_shot
 from weft.runner import ShotRunner
 from weft.scene import collision_switches
 

@@ -10,7 +10,7 @@ import pytest
 
 from weft import _solver
 from weft.cache import open_cache_reader
-from weft.gia_scenes import R, fold_shot, folded_sheet, two_sheets_shot
+from scenes.gia import R, fold_shot, folded_sheet, two_sheets_shot
 from weft.runner import ShotRunner
 from weft.scene import collision_switches
 

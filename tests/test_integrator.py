@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from weft.scene_builders import sheet_shot
+from scenes.builders import sheet_shot
 
 from conftest import make_sim
 

@@ -12,7 +12,7 @@ import pytest
 from weft import _solver
 from weft.runner import ShotRunner
 from weft.scene import build_setup, load_shot_file, resolve_scene
-from weft.scene_builders import demo_flag_files, sheet_shot
+from scenes.builders import demo_flag_files, sheet_shot
 
 from conftest import make_scene
 

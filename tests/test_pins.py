@@ -10,7 +10,7 @@ import numpy as np
 from weft.cache import open_cache_reader
 from weft.runner import ShotRunner
 from weft.scene import load_shot_file, resolve_scene
-from weft.scene_builders import sheet_shot
+from scenes.builders import sheet_shot
 
 from conftest import make_sim
 

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from weft.scene import ShotError, ShotValidationError, load_shot_file, parse_shot, resolve_scene
-from weft.scene_builders import sheet_shot
+from scenes.builders import sheet_shot
 
 
 def base_doc() -> dict:
