@@ -45,7 +45,8 @@ def query_benchmark(count: int, threads: int, seed: int = 7) -> list[dict[str, A
 def twist_benchmark(sizes: list[int], frames: int, substeps: int, threads: int) -> list[dict[str, Any]]:
     from weft import _solver
     from scenes.collision import twist_shot
-    from weft.scene import build_setup, parse_shot, resolve_scene
+    from weft.shot import parse_shot
+    from weft.solver_setup import build_setup, resolve_scene
 
     rows = []
     for n in sizes:

@@ -17,7 +17,8 @@ import numpy as np
 def run_shot(doc: dict[str, Any], base_dir: Path | None, threads: int) -> dict[str, Any]:
     """Simulates a shot document; returns per-frame GIA and total seconds and GIA counts."""
     from weft import _solver
-    from weft.scene import build_setup, parse_shot, resolve_scene
+    from weft.shot import parse_shot
+    from weft.solver_setup import build_setup, resolve_scene
 
     scene = resolve_scene(parse_shot(doc), base_dir or Path("."))
     sim = _solver.Simulation(build_setup(scene, threads))

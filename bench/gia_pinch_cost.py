@@ -14,7 +14,8 @@ import numpy as np  # noqa: E402
 
 from scenes.collision import box_pinch_shot  # noqa: E402
 from weft.runner import ShotRunner  # noqa: E402
-from weft.scene import parse_shot, resolve_scene  # noqa: E402
+from weft.shot import parse_shot  # noqa: E402
+from weft.solver_setup import resolve_scene
 
 
 def main() -> None:

@@ -16,7 +16,8 @@ import numpy as np
 import pytest
 
 from weft import _solver
-from weft.scene import Scene, build_setup, parse_shot, resolve_scene
+from weft.shot import parse_shot
+from weft.solver_setup import Scene, build_setup, resolve_scene
 
 
 def make_scene(document: dict[str, Any], base_dir: Path | None = None) -> Scene:

@@ -10,8 +10,8 @@ from pathlib import Path
 
 import numpy as np
 
-from weft.cache import describe_cache, open_cache_reader
 from scenes.builders import sheet_shot
+from weft.cache import describe_cache, open_cache_reader
 
 
 def write_shot(tmp_path: Path, frames: int, n: int = 12, substeps: int = 2) -> Path:

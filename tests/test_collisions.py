@@ -9,10 +9,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from weft import _solver
-from scenes.collision import drop_shot, floor_fold_shot, thin_bar_shot, twist_shot
-from weft.scene import build_setup, collision_switches
 from scenes.builders import grid_sheet, inline_mesh, sheet_shot
+from scenes.collision import drop_shot, floor_fold_shot, thin_bar_shot, twist_shot
+from weft import _solver
+from weft.solver_setup import build_setup, collision_switches
 
 from conftest import make_scene
 

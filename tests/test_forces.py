@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from weft import _solver
 from scenes.builders import sheet_shot
+from weft import _solver
 
 from conftest import make_sim
 

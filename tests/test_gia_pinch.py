@@ -8,12 +8,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from scenes.builders import inline_mesh, sheet_shot
+from scenes.collision import box_mesh, box_pinch_shot
 from weft import _solver
 from weft.cache import open_cache_reader
-from scenes.collision import box_mesh, box_pinch_shot
 from weft.runner import ShotRunner
-from weft.scene import bodies_intersect_each_other, build_setup, collision_switches
-from scenes.builders import inline_mesh, sheet_shot
+from weft.solver_setup import bodies_intersect_each_other, build_setup, collision_switches
 
 from conftest import make_scene
 from test_collisions import convex_depth

@@ -7,10 +7,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from weft.cache import open_cache_reader
 from scenes.gia import RADIUS, bone_shot, through_shot
+from weft.cache import open_cache_reader
 from weft.runner import ShotRunner
-from weft.scene import collision_switches
+from weft.solver_setup import collision_switches
 
 from conftest import make_scene
 from test_collisions import convex_depth, simulate

@@ -8,8 +8,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from weft import _solver
 from scenes.collision import sleeve_shot, swing_angles
+from weft import _solver
 
 from test_collisions import simulate
 

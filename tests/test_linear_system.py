@@ -9,10 +9,11 @@ import h5py
 import numpy as np
 import pytest
 
+from scenes.builders import demo_flag_files, sheet_shot
 from weft import _solver
 from weft.runner import ShotRunner
-from weft.scene import build_setup, load_shot_file, resolve_scene
-from scenes.builders import demo_flag_files, sheet_shot
+from weft.shot import load_shot_file
+from weft.solver_setup import build_setup, resolve_scene
 
 from conftest import make_scene
 

@@ -7,10 +7,11 @@ from pathlib import Path
 
 import numpy as np
 
+from scenes.builders import sheet_shot
 from weft.cache import open_cache_reader
 from weft.runner import ShotRunner
-from weft.scene import load_shot_file, resolve_scene
-from scenes.builders import sheet_shot
+from weft.shot import load_shot_file
+from weft.solver_setup import resolve_scene
 
 from conftest import make_sim
 

@@ -37,7 +37,8 @@ def _fail(message: str, code: int = 2) -> None:
 
 
 def _load_scene(shot_path: Path, linear_system: Optional[str] = None):  # type: ignore[no-untyped-def]
-    from weft.scene import ShotError, ShotValidationError, load_shot_file, resolve_scene
+    from weft.shot import ShotError, ShotValidationError, load_shot_file
+    from weft.solver_setup import resolve_scene
 
     try:
         shot = load_shot_file(shot_path)

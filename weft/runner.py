@@ -17,7 +17,7 @@ import numpy as np
 from api_schemas import FrameTelemetry
 from weft import __version__
 from weft.cache import CacheWriter
-from weft.scene import Scene, build_setup
+from weft.solver_setup import Scene, build_setup
 
 
 class SolverFailure(RuntimeError):

@@ -144,7 +144,9 @@ def submit_shot(client: httpx.Client, shot_path: Path, idempotency_key: str | No
     """Upload a shot file and the asset files it references (multipart)."""
     import yaml
 
-    from weft.scene import ShotError, ShotValidationError, asset_paths, load_shot_file
+    from weft.assets import asset_paths
+
+    from weft.shot import ShotError, ShotValidationError, load_shot_file
 
     try:
         shot = load_shot_file(shot_path)

@@ -1,93 +1,22 @@
-"""Turn a validated Shot plus its asset files into flat arrays for the C++ solver.
+"""Turn a validated Shot plus its asset files into flat arrays and the C++ solver's setup.
 
-Every problem found in the data is reported as a ShotError whose ``field`` is the path of the
-offending field in the shot (``cloth[0].mesh.faces[12]``), so the CLI and the HTTP API can say
-exactly what is wrong. Nothing here trusts an asset path: paths are resolved inside the shot's
-directory and may not leave it.
+``resolve_scene`` loads and checks every asset (``weft.assets``) and concatenates the cloth pieces
+into a Scene; ``build_setup`` turns a Scene into the solver's SimulationSetup; the collision
+switches (``collision_switches``: "model only what a scene needs") decide which features the
+solver runs. Problems are ShotErrors located by field path.
 """
 
 from __future__ import annotations
 
-import hashlib
-import json
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
-from pydantic import ValidationError
 
-from api_schemas import ArrayAsset, MeshSource, Shot
-
-MESH_SUFFIXES = {".obj", ".ply"}
-ARRAY_SUFFIXES = {".npz", ".npy", ".h5", ".hdf5"}
-MAX_VERTICES = 5_000_000
-
-
-class ShotError(ValueError):
-    """One problem with a shot, located by its field path."""
-
-    def __init__(self, field: str, problem: str) -> None:
-        super().__init__(f"{field}: {problem}")
-        self.field = field
-        self.problem = problem
-
-
-class ShotValidationError(ValueError):
-    """Several problems at once (from schema validation)."""
-
-    def __init__(self, errors: list[ShotError]) -> None:
-        super().__init__("; ".join(str(e) for e in errors))
-        self.errors = errors
-
-
-def format_location(loc: tuple[Any, ...]) -> str:
-    out = ""
-    for part in loc:
-        if isinstance(part, int):
-            out += f"[{part}]"
-        else:
-            out += ("." if out else "") + str(part)
-    return out or "shot"
-
-
-def parse_shot(document: dict[str, Any]) -> Shot:
-    """Validate a shot document; raise ShotValidationError listing every schema problem."""
-    try:
-        return Shot.model_validate(document)
-    except ValidationError as exc:
-        errors = []
-        for err in exc.errors(include_url=False):
-            # Drop pydantic's union-branch tags (e.g. 'list[...]', 'ArrayAsset') from the path.
-            loc = tuple(p for p in err["loc"] if isinstance(p, int) or not _is_type_tag(str(p)))
-            message = err["msg"].removeprefix("Value error, ")
-            errors.append(ShotError(format_location(loc), message))
-        raise ShotValidationError(errors) from None
-
-
-def _is_type_tag(part: str) -> bool:
-    return "[" in part or part[:1].isupper() or part in {"function-after", "function-before"}
-
-
-def load_shot_file(path: str | Path) -> Shot:
-    """Read a shot from a .json, .yaml or .yml file."""
-    path = Path(path)
-    if not path.is_file():
-        raise ShotError("shot", f"file not found: {path}")
-    text = path.read_text(encoding="utf-8")
-    try:
-        if path.suffix.lower() == ".json":
-            document = json.loads(text)
-        elif path.suffix.lower() in {".yaml", ".yml"}:
-            document = yaml.safe_load(text)
-        else:
-            raise ShotError("shot", f"unknown shot file type '{path.suffix}' (use .json, .yaml or .yml)")
-    except (json.JSONDecodeError, yaml.YAMLError) as exc:
-        raise ShotError("shot", f"cannot parse {path.name}: {exc}") from None
-    if not isinstance(document, dict):
-        raise ShotError("shot", "the document must be a mapping of fields")
-    return parse_shot(document)
+from api_schemas import ArrayAsset, Shot
+from weft.assets import check_finite, load_array, load_mesh, shot_hash
+from weft.shot import ShotError
 
 
 @dataclass
@@ -133,96 +62,6 @@ class Scene:
         return self.shot.frame_count
 
 
-def _resolve_asset(base_dir: Path, relative: str, field_path: str, suffixes: set[str]) -> Path:
-    base = base_dir.resolve()
-    candidate = (base / relative).resolve()
-    if not candidate.is_relative_to(base):
-        raise ShotError(field_path, "asset path leaves the shot's directory")
-    if candidate.suffix.lower() not in suffixes:
-        raise ShotError(field_path, f"unsupported file type '{candidate.suffix}' (expected one of {sorted(suffixes)})")
-    if not candidate.is_file():
-        raise ShotError(field_path, f"file not found: {relative}")
-    return candidate
-
-
-def load_array(base_dir: Path, asset: ArrayAsset, field_path: str) -> np.ndarray:
-    path = _resolve_asset(base_dir, asset.path, field_path + ".path", ARRAY_SUFFIXES)
-    key = asset.key or "positions"
-    suffix = path.suffix.lower()
-    try:
-        if suffix == ".npy":
-            return np.asarray(np.load(path, allow_pickle=False), dtype=np.float64)
-        if suffix == ".npz":
-            with np.load(path, allow_pickle=False) as archive:
-                if key not in archive:
-                    raise ShotError(field_path + ".key", f"'{key}' not in {asset.path} (has {sorted(archive.files)})")
-                return np.asarray(archive[key], dtype=np.float64)
-        import h5py
-
-        with h5py.File(path, "r") as f:
-            if key not in f or not isinstance(f[key], h5py.Dataset):
-                raise ShotError(field_path + ".key", f"no dataset '{key}' in {asset.path}")
-            return np.asarray(f[key][()], dtype=np.float64)
-    except ShotError:
-        raise
-    except (OSError, ValueError) as exc:
-        raise ShotError(field_path, f"cannot read {asset.path}: {exc}") from None
-
-
-def load_mesh(base_dir: Path, mesh: MeshSource, field_path: str) -> tuple[np.ndarray, np.ndarray]:
-    """Vertices (V, 3) float64 and faces (F, 3) int64, checked for finiteness and index range."""
-    if mesh.path is not None:
-        path = _resolve_asset(base_dir, mesh.path, field_path + ".path", MESH_SUFFIXES)
-        import trimesh
-
-        try:
-            # process=False and maintain_order=True keep the file's vertices as they are: merging
-            # or splitting at UV seams would silently change the cloth's topology.
-            loaded = trimesh.load(path, process=False, maintain_order=True, force="mesh")
-        except Exception as exc:  # trimesh raises many types for malformed files
-            raise ShotError(field_path + ".path", f"cannot read mesh {mesh.path}: {exc}") from None
-        vertices = np.asarray(loaded.vertices, dtype=np.float64).reshape(-1, 3)
-        faces = np.asarray(loaded.faces, dtype=np.int64).reshape(-1, 3)
-        where = field_path
-    else:
-        vertices = np.asarray(mesh.vertices, dtype=np.float64).reshape(-1, 3)
-        faces = np.asarray(mesh.faces, dtype=np.int64).reshape(-1, 3)
-        where = field_path
-    if len(vertices) == 0:
-        raise ShotError(where + ".vertices", "mesh is empty (no vertices)")
-    if len(faces) == 0:
-        raise ShotError(where + ".faces", "mesh has no faces")
-    if len(vertices) > MAX_VERTICES:
-        raise ShotError(where + ".vertices", f"{len(vertices)} vertices exceeds the limit of {MAX_VERTICES}")
-    check_finite(vertices, where + ".vertices")
-    check_faces(faces, len(vertices), where + ".faces")
-    return vertices, faces
-
-
-def check_finite(array: np.ndarray, field_path: str) -> None:
-    bad = ~np.isfinite(array)
-    if bad.any():
-        index = np.argwhere(bad)[0]
-        value = array[tuple(index)]
-        kind = "NaN" if np.isnan(value) else "infinite"
-        location = "".join(f"[{i}]" for i in index[:-1]) if array.ndim > 1 else f"[{index[0]}]"
-        raise ShotError(f"{field_path}{location}", f"coordinate is {kind}")
-
-
-def check_faces(faces: np.ndarray, vertex_count: int, field_path: str) -> None:
-    out_of_range = (faces < 0) | (faces >= vertex_count)
-    if out_of_range.any():
-        f, c = np.argwhere(out_of_range)[0]
-        raise ShotError(
-            f"{field_path}[{f}]",
-            f"vertex index {faces[f, c]} out of range (mesh has {vertex_count} vertices)",
-        )
-    repeated = (faces[:, 0] == faces[:, 1]) | (faces[:, 1] == faces[:, 2]) | (faces[:, 0] == faces[:, 2])
-    if repeated.any():
-        f = int(np.argmax(repeated))
-        raise ShotError(f"{field_path}[{f}]", f"triangle repeats a vertex {faces[f].tolist()}")
-
-
 def triangle_uvs_from_positions(positions: np.ndarray, faces: np.ndarray) -> np.ndarray:
     """Per-corner (u, v) of each triangle flattened into its own plane, in metres.
 
@@ -254,33 +93,6 @@ def check_rest_areas(face_uv: np.ndarray, field_path: str) -> None:
     if degenerate.any():
         f = int(np.argmax(degenerate))
         raise ShotError(f"{field_path}[{f}]", "rest triangle has zero area")
-
-
-def shot_hash(shot: Shot, base_dir: Path) -> str:
-    """SHA-256 over the canonical shot and the bytes of every asset it references."""
-    digest = hashlib.sha256(shot.model_dump_json().encode())
-    for path in sorted(asset_paths(shot)):
-        candidate = (base_dir / path).resolve()
-        if candidate.is_file():
-            digest.update(path.encode())
-            digest.update(hashlib.sha256(candidate.read_bytes()).digest())
-    return digest.hexdigest()
-
-
-def asset_paths(shot: Shot) -> set[str]:
-    paths: set[str] = set()
-    for piece in shot.cloth:
-        if piece.mesh.path:
-            paths.add(piece.mesh.path)
-        for value in (piece.rest.positions, piece.rest.face_uvs):
-            if isinstance(value, ArrayAsset):
-                paths.add(value.path)
-    for body in shot.bodies:
-        if body.mesh.path:
-            paths.add(body.mesh.path)
-        if body.animation is not None:
-            paths.add(body.animation.path)
-    return paths
 
 
 def piece_self_collide(shot: Shot) -> list[bool]:
