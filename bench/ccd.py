@@ -43,23 +43,19 @@ def query_benchmark(count: int, threads: int, seed: int = 7) -> list[dict[str, A
 
 
 def twist_benchmark(sizes: list[int], frames: int, substeps: int, threads: int) -> list[dict[str, Any]]:
-    from weft import _solver
     from scenes.collision import twist_shot
     from weft.shot import parse_shot
-    from weft.solver_setup import build_setup, resolve_scene
+    from weft.simulate import simulate
+    from weft.solver_setup import resolve_scene
 
     rows = []
     for n in sizes:
         with tempfile.TemporaryDirectory() as tmp:
             doc = twist_shot(Path(tmp), n=n, frames=frames, substeps=substeps)
             scene = resolve_scene(parse_shot(doc), Path(tmp))
-            sim = _solver.Simulation(build_setup(scene, threads))
             collision, total, intersections, hits, zones = [], [], 0, 0, 0
             split = np.zeros(4)
-            for index in range(1, scene.frame_count):
-                for b, body in enumerate(scene.bodies):
-                    sim.set_body_keyframes(b, body.frames[index - 1], body.frames[index])
-                t = sim.advance_frame((index - 1) / scene.shot.fps, 1.0 / scene.shot.fps, substeps)
+            for _, _, t in simulate(scene, threads=threads):
                 collision.append(t.collision_seconds)
                 total.append(t.total_seconds)
                 split += [t.collision_broad_phase_seconds, t.collision_proximity_seconds, t.collision_ccd_seconds,

@@ -16,18 +16,14 @@ import numpy as np
 
 def run_shot(doc: dict[str, Any], base_dir: Path | None, threads: int) -> dict[str, Any]:
     """Simulates a shot document; returns per-frame GIA and total seconds and GIA counts."""
-    from weft import _solver
     from weft.shot import parse_shot
-    from weft.solver_setup import build_setup, resolve_scene
+    from weft.simulate import simulate
+    from weft.solver_setup import resolve_scene
 
     scene = resolve_scene(parse_shot(doc), base_dir or Path("."))
-    sim = _solver.Simulation(build_setup(scene, threads))
-    fps, substeps = scene.shot.fps, scene.shot.substeps
+    substeps = scene.shot.substeps
     gia, total, coloured, paths, intersections = [], [], 0, 0, []
-    for index in range(1, scene.frame_count):
-        for b, body in enumerate(scene.bodies):
-            sim.set_body_keyframes(b, body.frames[index - 1], body.frames[index])
-        t = sim.advance_frame((index - 1) / fps, 1.0 / fps, substeps)
+    for _, _, t in simulate(scene, threads=threads):
         gia.append(t.gia_seconds)
         total.append(t.total_seconds)
         coloured = max(coloured, t.gia_coloured_vertices)

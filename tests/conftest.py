@@ -1,23 +1,18 @@
-"""Shared helpers: build scenes and simulations from shot documents in memory."""
+"""Shared helpers: build scenes and simulations from shot documents in memory. (OpenMP's wait
+policy is set once, by importing weft: weft/__init__.py.)"""
 
 from __future__ import annotations
 
-import os
-
-# OpenMP worker threads spin-wait between parallel regions; on a shared 2-core machine they
-# steal the core the serial parts need (the collision tests ran ~10x slower). Set before the
-# solver (libgomp) is loaded.
-os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
-
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
 
-from weft import _solver
+from weft import simulate as frame_loop
 from weft.shot import parse_shot
-from weft.solver_setup import Scene, build_setup, resolve_scene
+from weft.solver_setup import Scene, resolve_scene
 
 
 def make_scene(document: dict[str, Any], base_dir: Path | None = None) -> Scene:
@@ -26,7 +21,21 @@ def make_scene(document: dict[str, Any], base_dir: Path | None = None) -> Scene:
 
 def make_sim(document: dict[str, Any], threads: int = 1) -> tuple[Scene, Any]:
     scene = make_scene(document)
-    return scene, _solver.Simulation(build_setup(scene, threads))
+    return scene, frame_loop.new_simulation(scene, threads)
+
+
+def simulate(document: dict[str, Any], base_dir: Path | None = None, threads: int = 2) -> Iterator[tuple[int, Any, Any]]:
+    """Yields (frame index, simulation, solver telemetry) for every simulated frame of a shot
+    document (weft.simulate's frame loop)."""
+    return frame_loop.simulate(make_scene(document, base_dir), threads=threads)
+
+
+def convex_depth(x: np.ndarray, vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """Signed distance-like depth of points to a convex closed mesh: > 0 outside, < 0 inside."""
+    a, b, c = (vertices[faces[:, k]] for k in range(3))
+    n = np.cross(b - a, c - a)
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    return np.max(np.einsum("vfk,fk->vf", x[:, None, :] - a[None], n), axis=1)
 
 
 @pytest.fixture

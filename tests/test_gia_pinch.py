@@ -13,10 +13,10 @@ from scenes.collision import box_mesh, box_pinch_shot
 from weft import _solver
 from weft.cache import open_cache_reader
 from weft.runner import ShotRunner
+from weft.simulate import simulate
 from weft.solver_setup import bodies_intersect_each_other, build_setup, collision_switches
 
-from conftest import make_scene
-from test_collisions import convex_depth
+from conftest import convex_depth, make_scene
 
 CLOSE, HOLD = 5, 6  # box_pinch_shot defaults
 BOX_SPEED = (0.05 + 0.003) / CLOSE * 24.0  # the upper box's speed while it moves, m/s (0.25)
@@ -44,13 +44,8 @@ def run_pinch(tmp_path, body_pinch: bool = True, depth: float = 0.003) -> list[d
     assert collision_switches(scene)["gia"] == 1  # auto: the boxes intersect at some frame
     setup = build_setup(scene, 2)
     setup.collision.body_pinch = body_pinch
-    sim = _solver.Simulation(setup)
-    fps, substeps = scene.shot.fps, scene.shot.substeps
     rows = []
-    for index in range(1, scene.frame_count):
-        for b, body in enumerate(scene.bodies):
-            sim.set_body_keyframes(b, body.frames[index - 1], body.frames[index])
-        t = sim.advance_frame((index - 1) / fps, 1.0 / fps, substeps)
+    for index, sim, t in simulate(scene, _solver.Simulation(setup)):
         x = sim.positions
         rows.append({
             "frame": index, "pairs": t.gia_pinched_body_pairs, "intersections": t.intersections,
@@ -201,10 +196,7 @@ def test_pinch_does_not_depend_on_the_thread_count(tmp_path):
     scene = make_scene(box_pinch_shot(tmp_path, close=2, hold=2, after=1, travel=0.004), tmp_path)
     finals = []
     for threads in (1, 2):
-        sim = _solver.Simulation(build_setup(scene, threads))
-        for index in range(1, scene.frame_count):
-            for b, body in enumerate(scene.bodies):
-                sim.set_body_keyframes(b, body.frames[index - 1], body.frames[index])
-            t = sim.advance_frame((index - 1) / 24.0, 1.0 / 24.0, scene.shot.substeps)
+        for _, sim, _ in simulate(scene, threads=threads):
+            pass
         finals.append(sim.positions.copy())
     assert np.array_equal(finals[0], finals[1])

@@ -12,6 +12,7 @@ import pytest
 from scenes.builders import demo_flag_files, sheet_shot
 from weft import _solver
 from weft.runner import ShotRunner
+from weft.simulate import new_simulation, simulate
 from weft.shot import load_shot_file
 from weft.solver_setup import build_setup, resolve_scene
 
@@ -50,10 +51,8 @@ def test_fast_path_is_bitwise_deterministic_across_runs_and_threads(tmp_path: Pa
 
 
 def demo_positions(scene, path: str, frames: int, threads: int) -> np.ndarray:
-    sim = _solver.Simulation(build_setup(scene, threads, path))
-    dt = 1.0 / scene.shot.fps
-    for index in range(frames):
-        sim.advance_frame(index * dt, dt, scene.shot.substeps)
+    for _, sim, _ in simulate(scene, new_simulation(scene, threads, path), stop=frames + 1):
+        pass
     return np.array(sim.positions)
 
 
