@@ -1,5 +1,5 @@
-"""`weft bench ...`: performance measurements (registered into the main app by weft/cli.py).
-Each command imports its benchmark from the `bench` package when it runs."""
+"""`weft bench ...`: performance measurements. Each command imports its benchmark from the
+`bench` package when it runs (bench is not part of the library)."""
 
 from __future__ import annotations
 
@@ -8,14 +8,14 @@ from typing import Annotated, Optional
 
 import typer
 
-bench_app = typer.Typer(name="bench", help="Performance benchmarks.", no_args_is_help=True)
+app = typer.Typer(name="bench", help="Performance benchmarks.", no_args_is_help=True)
 
 
 def _sizes(text: str) -> list[int]:
     return [int(s) for s in text.split(",") if s.strip()]
 
 
-@bench_app.command("solver")
+@app.command("solver")
 def solver(
     threads: Annotated[int, typer.Option("--threads", min=1, max=256, help="Solver threads")] = 2,
     json_path: Annotated[Optional[Path], typer.Option("--json", help="Also write every figure as JSON here")] = None,
@@ -27,7 +27,7 @@ def solver(
     main(threads=threads, json_path=json_path, quick=quick)
 
 
-@bench_app.command("ccd")
+@app.command("ccd")
 def ccd(
     queries: Annotated[int, typer.Option("--queries", min=1000, help="Randomized queries per kind")] = 100_000,
     sizes: Annotated[str, typer.Option("--sizes", help="Twisting-sheet grid sizes n (n x n vertices)")] = "8,12,16,24",
@@ -43,7 +43,7 @@ def ccd(
     main(queries=queries, sizes=_sizes(sizes), frames=frames, substeps=substeps, threads=threads, as_json=as_json)
 
 
-@bench_app.command("gia")
+@app.command("gia")
 def gia(
     sizes: Annotated[str, typer.Option("--sizes", help="Bone-sheet grid sizes n (n x n vertices)")] = "21,41,81,161",
     frames: Annotated[int, typer.Option("--frames", min=1, help="Frames per scaling run")] = 4,
