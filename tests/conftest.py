@@ -1,41 +1,9 @@
-"""Shared helpers: build scenes and simulations from shot documents in memory. (OpenMP's wait
-policy is set once, by importing weft: weft/__init__.py.)"""
+"""Fixtures shared by every test (helpers to import are in tests/helpers.py)."""
 
 from __future__ import annotations
 
-from collections.abc import Iterator
-from pathlib import Path
-from typing import Any
-
 import numpy as np
 import pytest
-
-from weft import simulate as frame_loop
-from weft.shot import parse_shot
-from weft.solver_setup import Scene, resolve_scene
-
-
-def make_scene(document: dict[str, Any], base_dir: Path | None = None) -> Scene:
-    return resolve_scene(parse_shot(document), base_dir or Path.cwd())
-
-
-def make_sim(document: dict[str, Any], threads: int = 1) -> tuple[Scene, Any]:
-    scene = make_scene(document)
-    return scene, frame_loop.new_simulation(scene, threads)
-
-
-def simulate(document: dict[str, Any], base_dir: Path | None = None, threads: int = 2) -> Iterator[tuple[int, Any, Any]]:
-    """Yields (frame index, simulation, solver telemetry) for every simulated frame of a shot
-    document (weft.simulate's frame loop)."""
-    return frame_loop.simulate(make_scene(document, base_dir), threads=threads)
-
-
-def convex_depth(x: np.ndarray, vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    """Signed distance-like depth of points to a convex closed mesh: > 0 outside, < 0 inside."""
-    a, b, c = (vertices[faces[:, k]] for k in range(3))
-    n = np.cross(b - a, c - a)
-    n /= np.linalg.norm(n, axis=1, keepdims=True)
-    return np.max(np.einsum("vfk,fk->vf", x[:, None, :] - a[None], n), axis=1)
 
 
 @pytest.fixture

@@ -14,7 +14,7 @@ from weft.cache import open_cache_reader
 from weft.runner import ShotRunner
 from weft.solver_setup import collision_switches
 
-from conftest import make_scene, simulate
+from tests.helpers import make_scene, simulate
 
 
 def run(doc: dict, threads: int = 2) -> tuple[list, np.ndarray]:

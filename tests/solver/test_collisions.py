@@ -13,7 +13,7 @@ from weft import _solver
 from weft import simulate as frame_loop
 from weft.solver_setup import build_setup, collision_switches
 
-from conftest import convex_depth, make_scene, simulate
+from tests.helpers import convex_depth, make_scene, simulate
 
 
 @pytest.mark.parametrize("body", ["sphere", "box"])

@@ -12,11 +12,11 @@ import pytest
 from scenes.builders import demo_flag_files, sheet_shot
 from weft import _solver
 from weft.runner import ShotRunner
-from weft.simulate import new_simulation, simulate
 from weft.shot import load_shot_file
+from weft.simulate import new_simulation, simulate
 from weft.solver_setup import build_setup, resolve_scene
 
-from conftest import make_scene
+from tests.helpers import make_scene
 
 
 def windy_sheet(frames: int = 3) -> dict:

@@ -13,7 +13,7 @@ from weft.runner import ShotRunner
 from weft.shot import load_shot_file
 from weft.solver_setup import resolve_scene
 
-from conftest import make_sim
+from tests.helpers import make_sim
 
 BOX_V = np.array([[0, 0, 0], [0.1, 0, 0], [0, 0.1, 0], [0, 0, 0.1]], dtype=float)
 BOX_F = [[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]]

@@ -12,7 +12,7 @@ from weft.cache import open_cache_reader
 from weft.runner import ShotRunner
 from weft.solver_setup import collision_switches
 
-from conftest import convex_depth, make_scene, simulate
+from tests.helpers import convex_depth, make_scene, simulate
 
 
 @pytest.mark.parametrize(

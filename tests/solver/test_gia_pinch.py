@@ -16,7 +16,7 @@ from weft.runner import ShotRunner
 from weft.simulate import simulate
 from weft.solver_setup import bodies_intersect_each_other, build_setup, collision_switches
 
-from conftest import convex_depth, make_scene
+from tests.helpers import convex_depth, make_scene
 
 CLOSE, HOLD = 5, 6  # box_pinch_shot defaults
 BOX_SPEED = (0.05 + 0.003) / CLOSE * 24.0  # the upper box's speed while it moves, m/s (0.25)

@@ -8,7 +8,7 @@ import pytest
 from scenes.builders import sheet_shot
 from weft import _solver
 
-from conftest import make_sim
+from tests.helpers import make_sim
 
 T = _solver.ForceTerm
 STEP = 1e-6

@@ -11,7 +11,7 @@ import pytest
 from scenes.collision import sleeve_shot, swing_angles
 from weft import _solver
 
-from conftest import simulate
+from tests.helpers import simulate
 
 AROUND = 16  # sleeve vertices per ring (sleeve_shot)
 
