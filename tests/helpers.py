@@ -30,6 +30,15 @@ def simulate(document: dict[str, Any], base_dir: Path | None = None, threads: in
     return frame_loop.simulate(make_scene(document, base_dir), threads=threads)
 
 
+def final_positions(scene: Scene, threads: int = 1, sim: Any = None, stop: int | None = None) -> np.ndarray:
+    """Positions after the frame loop ran over the whole shot (or frames 1 .. stop - 1), from a
+    new Simulation with `threads` unless `sim` is given."""
+    sim = frame_loop.new_simulation(scene, threads) if sim is None else sim
+    for _ in frame_loop.simulate(scene, sim, stop=stop):
+        pass
+    return np.array(sim.positions)
+
+
 def convex_depth(x: np.ndarray, vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     """Signed distance-like depth of points to a convex closed mesh: > 0 outside, < 0 inside."""
     a, b, c = (vertices[faces[:, k]] for k in range(3))

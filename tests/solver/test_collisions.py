@@ -7,13 +7,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from scenes.builders import grid_sheet, inline_mesh, sheet_shot
+from scenes.builders import grid_sheet, sheet_shot
 from scenes.collision import drop_shot, floor_fold_shot, thin_bar_shot, twist_shot
 from weft import _solver
 from weft import simulate as frame_loop
 from weft.solver_setup import build_setup, collision_switches
 
-from tests.helpers import convex_depth, make_scene, simulate
+from tests.helpers import convex_depth, final_positions, make_scene, simulate
 
 
 @pytest.mark.parametrize("body", ["sphere", "box"])
@@ -144,13 +144,8 @@ def test_ccd_single_and_batch_agree():
 
 
 def test_collision_stage_is_bitwise_reproducible_across_thread_counts():
-    doc = drop_shot("box", n=10, frames=10, substeps=2)
-    results = []
-    for threads in (1, 2):
-        for _, sim, _ in simulate(doc, threads=threads):
-            pass
-        results.append(sim.positions.copy())
-    assert np.array_equal(results[0], results[1])
+    scene = make_scene(drop_shot("box", n=10, frames=10, substeps=2))
+    assert np.array_equal(final_positions(scene, threads=1), final_positions(scene, threads=2))
 
 
 def test_contact_constraints_in_the_solve_keep_the_sheet_outside():

@@ -16,7 +16,7 @@ from weft.runner import ShotRunner
 from weft.simulate import simulate
 from weft.solver_setup import bodies_intersect_each_other, build_setup, collision_switches
 
-from tests.helpers import convex_depth, make_scene
+from tests.helpers import convex_depth, final_positions, make_scene
 
 CLOSE, HOLD = 5, 6  # box_pinch_shot defaults
 BOX_SPEED = (0.05 + 0.003) / CLOSE * 24.0  # the upper box's speed while it moves, m/s (0.25)
@@ -194,9 +194,4 @@ def test_gia_switch_turns_on_when_bodies_meet_at_a_later_frame(tmp_path):
 
 def test_pinch_does_not_depend_on_the_thread_count(tmp_path):
     scene = make_scene(box_pinch_shot(tmp_path, close=2, hold=2, after=1, travel=0.004), tmp_path)
-    finals = []
-    for threads in (1, 2):
-        for _, sim, _ in simulate(scene, threads=threads):
-            pass
-        finals.append(sim.positions.copy())
-    assert np.array_equal(finals[0], finals[1])
+    assert np.array_equal(final_positions(scene, threads=1), final_positions(scene, threads=2))

@@ -13,10 +13,10 @@ from scenes.builders import demo_flag_files, sheet_shot
 from weft import _solver
 from weft.runner import ShotRunner
 from weft.shot import load_shot_file
-from weft.simulate import new_simulation, simulate
+from weft.simulate import new_simulation
 from weft.solver_setup import build_setup, resolve_scene
 
-from tests.helpers import make_scene
+from tests.helpers import final_positions, make_scene
 
 
 def windy_sheet(frames: int = 3) -> dict:
@@ -51,9 +51,7 @@ def test_fast_path_is_bitwise_deterministic_across_runs_and_threads(tmp_path: Pa
 
 
 def demo_positions(scene, path: str, frames: int, threads: int) -> np.ndarray:
-    for _, sim, _ in simulate(scene, new_simulation(scene, threads, path), stop=frames + 1):
-        pass
-    return np.array(sim.positions)
+    return final_positions(scene, sim=new_simulation(scene, threads, path), stop=frames + 1)
 
 
 def test_fast_and_reference_paths_agree_on_the_demo(tmp_path: Path) -> None:
