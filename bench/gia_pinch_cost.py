@@ -4,17 +4,15 @@ prints the pinched column and gia_seconds against the frame time."""
 
 from __future__ import annotations
 
-import os
 import tempfile
 from pathlib import Path
 
-os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+import numpy as np
 
-import numpy as np  # noqa: E402
-
-from weft.collision_scenes import box_pinch_shot  # noqa: E402
-from weft.runner import ShotRunner  # noqa: E402
-from weft.scene import parse_shot, resolve_scene  # noqa: E402
+from scenes.collision import box_pinch_shot
+from weft.runner import ShotRunner
+from weft.shot import parse_shot
+from weft.solver_setup import resolve_scene
 
 
 def main() -> None:

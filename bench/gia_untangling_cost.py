@@ -1,21 +1,21 @@
 """Per-frame cost of cloth/cloth GIA untangling (docs/intersection-analysis.md): the fold scene
-of tests/test_gia_untangling.py at two resolutions, pushed through or clean, GIA on and off.
+(scenes.gia.fold_shot, as in the untangling tests) at two resolutions, pushed through or clean,
+GIA on and off.
 
-Run from the repository root: python bench/gia_untangling_cost.py
+Run from the repository root: python -m bench.gia_untangling_cost
 """
 
 from __future__ import annotations
 
-import sys
 import time
 from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))
-
-from test_collisions import simulate  # noqa: E402
-from weft.gia_scenes import R, fold_shot  # noqa: E402
+from scenes.gia import R, fold_shot
+from weft.shot import parse_shot
+from weft.simulate import simulate
+from weft.solver_setup import resolve_scene
 
 
 def main() -> None:
@@ -25,7 +25,7 @@ def main() -> None:
                 doc = fold_shot(dip=dip, gia=gia, frames=4, k=k)
                 rows = []
                 start = time.perf_counter()
-                for _, _, t in simulate(doc, threads=2):
+                for _, _, t in simulate(resolve_scene(parse_shot(doc), Path.cwd()), threads=2):
                     rows.append((t.gia_seconds, t.collision_seconds, t.total_seconds, t.intersections, t.gia_self_paths))
                 wall = time.perf_counter() - start
                 r = np.array(rows)

@@ -68,7 +68,7 @@ class PathRecord:
 
 
 def sheet_document(side: int) -> dict[str, Any]:
-    from weft.scene_builders import sheet_shot
+    from scenes.builders import sheet_shot
 
     width = SPACING * (side - 1)
     return sheet_shot(
@@ -83,7 +83,7 @@ class PathRun:
 
     def __init__(self, scene: Any, path: str, threads: int) -> None:
         from weft import _solver
-        from weft.scene import build_setup
+        from weft.solver_setup import build_setup
 
         self.path, self.threads = path, threads
         self.sim = _solver.Simulation(build_setup(scene, threads, path))
@@ -163,7 +163,8 @@ def fast_extras(sim: Any, threads: int, tolerance: float) -> dict[str, Any]:
 
 def run_bench(threads: int = 2, quick: bool = False, log: Callable[[str], None] = print) -> dict[str, Any]:
     from weft import _solver
-    from weft.scene import parse_shot, resolve_scene
+    from weft.shot import parse_shot
+    from weft.solver_setup import resolve_scene
 
     started = time.perf_counter()
     load_before = os.getloadavg()[0]

@@ -9,7 +9,7 @@ import json
 import sys
 from pathlib import Path
 
-from weft.scene_builders import demo_flag_files, sheet_shot
+from scenes.builders import demo_flag_files, sheet_shot
 
 
 def main(out: Path) -> None:

@@ -53,7 +53,7 @@ class CacheWriter:
     # -- construction -------------------------------------------------------------------
     @classmethod
     def create(cls, path: str | Path, scene: Any, weft_version: str, threads: int) -> CacheWriter:
-        from weft.scene import Scene  # local import: the cache module has no solver dependency
+        from weft.solver_setup import Scene  # local import: the cache module has no solver dependency
 
         assert isinstance(scene, Scene)
         path = Path(path)

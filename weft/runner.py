@@ -1,8 +1,9 @@
 """Run a shot frame by frame into its cache.
 
 Shared by `weft run` and the service's workers. The first frame of the range is the initial
-state (its telemetry row has zero substeps); every later frame is one call into the C++
-solver. Callbacks report each finished frame and let the caller stop between frames.
+state (its telemetry row has zero substeps); every later frame is one step of the frame loop
+(``weft.simulate``). The runner adds the cache, resume from a cache's saved state, progress
+callbacks and stopping between frames (the caller's signal handling sets ``should_stop``).
 """
 
 from __future__ import annotations
@@ -12,21 +13,13 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import numpy as np
-
 from api_schemas import FrameTelemetry
 from weft import __version__
 from weft.cache import CacheWriter
-from weft.scene import Scene, build_setup
+from weft.simulate import SolverFailure, advance, initial_telemetry, new_simulation, telemetry_row
+from weft.solver_setup import Scene
 
-
-class SolverFailure(RuntimeError):
-    """The solver failed at a frame; frames before it are in the cache."""
-
-    def __init__(self, frame: int, reason: str) -> None:
-        super().__init__(f"frame {frame}: {reason}")
-        self.frame = frame
-        self.reason = reason
+__all__ = ["FrameRecord", "RunSummary", "ShotRunner", "SolverFailure"]
 
 
 @dataclass
@@ -47,19 +40,6 @@ class RunSummary:
     resumed_from: int | None
     wall_seconds: float
     telemetry: list[FrameTelemetry] = field(default_factory=list)
-
-
-def zero_telemetry(frame: int, sim: object) -> FrameTelemetry:
-    e = sim.energies()  # type: ignore[attr-defined]
-    return FrameTelemetry(
-        frame=frame, build_seconds=0.0, solve_seconds=0.0, collision_seconds=0.0, gia_seconds=0.0,
-        total_seconds=0.0, cg_iterations=0, final_residual=0.0, substeps=0, unconverged_substeps=0,
-        kinetic_energy=e.kinetic, potential_energy=e.gravity + e.elastic,
-    )
-
-
-def to_telemetry(frame: int, t: object) -> FrameTelemetry:
-    return FrameTelemetry(frame=frame, **{k: getattr(t, k) for k in FrameTelemetry.model_fields if k != "frame"})
 
 
 class ShotRunner:
@@ -85,12 +65,10 @@ class ShotRunner:
         on_frame: Callable[[FrameRecord], None] | None = None,
         should_stop: Callable[[], bool] | None = None,
     ) -> RunSummary:
-        from weft import _solver
-
         scene = self.scene
         shot = scene.shot
         start_wall = time.perf_counter()
-        sim = _solver.Simulation(build_setup(scene, self.threads))
+        sim = new_simulation(scene, self.threads)
         resumed_from: int | None = None
         if self.resume and self.cache_path.exists():
             writer, state = CacheWriter.resume(self.cache_path, scene.shot_hash)
@@ -100,7 +78,6 @@ class ShotRunner:
         else:
             writer = CacheWriter.create(self.cache_path, scene, __version__, self.threads)
         first = shot.frame_range[0]
-        dt = 1.0 / shot.fps
         summary = RunSummary(self.cache_path, 0, self.frames_total, "running", resumed_from, 0.0)
         status, error = "failed", ""
         try:
@@ -112,19 +89,10 @@ class ShotRunner:
                 frame_start = time.perf_counter()
                 frame = first + index
                 if index == 0:
-                    telemetry = zero_telemetry(frame, sim)
+                    telemetry = initial_telemetry(frame, sim)
                 else:
-                    for b, body in enumerate(scene.bodies):
-                        sim.set_body_keyframes(b, body.frames[index - 1], body.frames[index])
-                    try:
-                        t = sim.advance_frame((index - 1) * dt, dt, shot.substeps)
-                    except _solver.SolverDivergence as exc:
-                        raise SolverFailure(frame, str(exc)) from None
-                    telemetry = to_telemetry(frame, t)
-                positions = sim.positions
-                if not np.isfinite(positions).all():
-                    raise SolverFailure(frame, "non-finite positions")
-                writer.append(frame, positions, sim.velocities, sim.warm_start, telemetry)
+                    telemetry = telemetry_row(frame, advance(sim, scene, index))
+                writer.append(frame, sim.positions, sim.velocities, sim.warm_start, telemetry)
                 summary.telemetry.append(telemetry)
                 if on_frame is not None:
                     on_frame(FrameRecord(index, frame, self.frames_total, telemetry, time.perf_counter() - frame_start))

@@ -8,14 +8,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from scenes.gia import R, fold_shot, folded_sheet, two_sheets_shot
 from weft import _solver
 from weft.cache import open_cache_reader
-from weft.gia_scenes import R, fold_shot, folded_sheet, two_sheets_shot
 from weft.runner import ShotRunner
-from weft.scene import collision_switches
+from weft.solver_setup import collision_switches
 
-from conftest import make_scene
-from test_collisions import simulate
+from tests.helpers import make_scene, simulate
 
 
 def run(doc: dict, threads: int = 2) -> tuple[list, np.ndarray]:

@@ -1,10 +1,10 @@
 """`weft bench ccd`: CCD query throughput and false negatives on the randomized exact-truth set
-(weft.ccd_queries), and the per-frame collision cost against vertex count on the twisting sheet
-(weft.collision_scenes.twist_shot)."""
+(bench.ccd_queries), and the per-frame collision cost against vertex count on the twisting sheet
+(scenes.collision.twist_shot)."""
 
 from __future__ import annotations
 
-import os
+import json
 import tempfile
 import time
 from pathlib import Path
@@ -15,7 +15,7 @@ import numpy as np
 
 def query_benchmark(count: int, threads: int, seed: int = 7) -> list[dict[str, Any]]:
     from weft import _solver
-    from weft.ccd_queries import make_queries
+    from bench.ccd_queries import make_queries
 
     rng = np.random.default_rng(seed)
     rows = []
@@ -43,22 +43,19 @@ def query_benchmark(count: int, threads: int, seed: int = 7) -> list[dict[str, A
 
 
 def twist_benchmark(sizes: list[int], frames: int, substeps: int, threads: int) -> list[dict[str, Any]]:
-    from weft import _solver
-    from weft.collision_scenes import twist_shot
-    from weft.scene import build_setup, parse_shot, resolve_scene
+    from scenes.collision import twist_shot
+    from weft.shot import parse_shot
+    from weft.simulate import simulate
+    from weft.solver_setup import resolve_scene
 
     rows = []
     for n in sizes:
         with tempfile.TemporaryDirectory() as tmp:
             doc = twist_shot(Path(tmp), n=n, frames=frames, substeps=substeps)
             scene = resolve_scene(parse_shot(doc), Path(tmp))
-            sim = _solver.Simulation(build_setup(scene, threads))
             collision, total, intersections, hits, zones = [], [], 0, 0, 0
             split = np.zeros(4)
-            for index in range(1, scene.frame_count):
-                for b, body in enumerate(scene.bodies):
-                    sim.set_body_keyframes(b, body.frames[index - 1], body.frames[index])
-                t = sim.advance_frame((index - 1) / scene.shot.fps, 1.0 / scene.shot.fps, substeps)
+            for _, _, t in simulate(scene, threads=threads):
                 collision.append(t.collision_seconds)
                 total.append(t.total_seconds)
                 split += [t.collision_broad_phase_seconds, t.collision_proximity_seconds, t.collision_ccd_seconds,
@@ -82,7 +79,34 @@ def twist_benchmark(sizes: list[int], frames: int, substeps: int, threads: int) 
     return rows
 
 
-def prefer_passive_openmp() -> None:
-    """Spin-waiting OpenMP workers steal cores on shared machines; must run before the solver
-    library is loaded to take effect."""
-    os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+def main(queries: int = 100_000, sizes: list[int] | None = None, frames: int = 121, substeps: int = 2,
+         threads: int = 1, as_json: bool = False) -> None:
+    """Runs both benchmarks and prints their tables (or one JSON document)."""
+    from rich.console import Console
+    from rich.table import Table
+
+    out = Console()
+    query_rows = query_benchmark(queries, threads)
+    twist_rows = twist_benchmark(sizes, frames, substeps, threads) if sizes else []
+    if as_json:
+        out.print_json(json.dumps({"queries": query_rows, "twist": twist_rows}))
+        return
+    table = Table(title=f"CCD queries ({threads} thread(s))", title_justify="left")
+    for column in ("query", "queries", "queries/s", "false negatives", "false positives", "FP rate", "mean boxes"):
+        table.add_column(column, justify="right")
+    for r in query_rows:
+        table.add_row(r["query"], str(r["queries"]), f"{r['queries_per_second']:,.0f}", str(r["false_negatives"]),
+                      str(r["false_positives"]), f"{r['false_positive_rate']:.4f}", f"{r['mean_boxes']:.1f}")
+    out.print(table)
+    if twist_rows:
+        table = Table(title=f"Twisting sheet, {frames} frames x {substeps} substeps", title_justify="left")
+        for column in ("vertices", "collision s/frame", "max", "broad/prox/ccd/resp", "total s/frame", "CCD hits",
+                       "zones", "max intersections"):
+            table.add_column(column, justify="right")
+        for r in twist_rows:
+            table.add_row(str(r["vertices"]), f"{r['collision_seconds_per_frame']:.4f}",
+                          f"{r['collision_seconds_max']:.4f}",
+                          "/".join(f"{v:.4f}" for v in r["broad_proximity_ccd_response_per_frame"]),
+                          f"{r['total_seconds_per_frame']:.4f}", str(r["ccd_hits"]), str(r["impact_zones"]),
+                          str(r["max_intersections"]))
+        out.print(table)

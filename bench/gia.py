@@ -5,6 +5,7 @@ telemetry (gia_seconds, total_seconds), so they are the costs a shot pays."""
 
 from __future__ import annotations
 
+import json
 import tempfile
 from collections.abc import Callable
 from pathlib import Path
@@ -15,17 +16,14 @@ import numpy as np
 
 def run_shot(doc: dict[str, Any], base_dir: Path | None, threads: int) -> dict[str, Any]:
     """Simulates a shot document; returns per-frame GIA and total seconds and GIA counts."""
-    from weft import _solver
-    from weft.scene import build_setup, parse_shot, resolve_scene
+    from weft.shot import parse_shot
+    from weft.simulate import simulate
+    from weft.solver_setup import resolve_scene
 
     scene = resolve_scene(parse_shot(doc), base_dir or Path("."))
-    sim = _solver.Simulation(build_setup(scene, threads))
-    fps, substeps = scene.shot.fps, scene.shot.substeps
+    substeps = scene.shot.substeps
     gia, total, coloured, paths, intersections = [], [], 0, 0, []
-    for index in range(1, scene.frame_count):
-        for b, body in enumerate(scene.bodies):
-            sim.set_body_keyframes(b, body.frames[index - 1], body.frames[index])
-        t = sim.advance_frame((index - 1) / fps, 1.0 / fps, substeps)
+    for _, _, t in simulate(scene, threads=threads):
         gia.append(t.gia_seconds)
         total.append(t.total_seconds)
         coloured = max(coloured, t.gia_coloured_vertices)
@@ -49,7 +47,7 @@ def run_shot(doc: dict[str, Any], base_dir: Path | None, threads: int) -> dict[s
 def scaling_benchmark(sizes: list[int], frames: int, threads: int) -> list[dict[str, Any]]:
     """Sheets of n x n vertices over the bone, with a patch pushed in (tangled) and without
     (clean, GIA forced on: the cost of analysing a scene that has nothing to recover)."""
-    from weft.gia_scenes import bone_shot
+    from scenes.gia import bone_shot
 
     rows = []
     for n in sizes:
@@ -63,8 +61,8 @@ def scaling_benchmark(sizes: list[int], frames: int, threads: int) -> list[dict[
 
 def hard_cases() -> dict[str, Callable[[Path], dict[str, Any]]]:
     """The issue's hard cases, each a function of a scratch directory returning a shot."""
-    from weft.collision_scenes import box_pinch_shot, sleeve_shot
-    from weft.gia_scenes import bone_shot, fold_shot, through_shot, two_sheets_shot
+    from scenes.collision import box_pinch_shot, sleeve_shot
+    from scenes.gia import bone_shot, fold_shot, through_shot, two_sheets_shot
 
     return {
         "bone: patch 7 mm in (21x21)": lambda d: bone_shot(n=21, frames=13),
@@ -89,3 +87,32 @@ def hard_case_benchmark(threads: int, only: str | None = None) -> list[dict[str,
         row["case"] = name
         rows.append(row)
     return rows
+
+
+def main(sizes: list[int] | None = None, frames: int = 4, threads: int = 2, cases: bool = True,
+         as_json: bool = False) -> None:
+    """Runs the scaling runs and the hard cases and prints their tables (or one JSON document)."""
+    from rich.console import Console
+    from rich.table import Table
+
+    out = Console()
+    scaling = scaling_benchmark(sizes, frames, threads) if sizes else []
+    hard = hard_case_benchmark(threads) if cases else []
+    if as_json:
+        out.print_json(json.dumps({"scaling": scaling, "cases": hard}))
+        return
+    for title, rows in ((f"GIA against vertex count ({threads} thread(s))", scaling),
+                        (f"GIA on the hard cases ({threads} thread(s))", hard)):
+        if not rows:
+            continue
+        table = Table(title=title, title_justify="left")
+        for column in ("case", "vertices", "frames", "GIA ms frame 1", "GIA ms/step", "total ms/frame", "GIA share",
+                       "max coloured", "max paths", "intersections first/last"):
+            table.add_column(column, justify="right")
+        for r in rows:
+            first, last = r["intersections_first_last"]
+            table.add_row(r["case"], str(r["vertices"]), str(r["frames"]), f"{1e3 * r['gia_seconds_first_frame']:.1f}",
+                          f"{1e3 * r['gia_seconds_per_step']:.2f}",
+                          f"{1e3 * r['total_seconds_per_frame']:.1f}", f"{100 * r['gia_share']:.1f} %",
+                          str(r["max_coloured_vertices"]), str(r["max_paths"]), f"{first}/{last}")
+        out.print(table)

@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from weft.scene_builders import grid_sheet, inline_mesh, sheet_shot
+from scenes.builders import grid_sheet, inline_mesh, sheet_shot
 
 
 def sphere_mesh(radius: float, subdivisions: int = 3, centre=(0.0, 0.0, 0.0)) -> tuple[np.ndarray, np.ndarray]:

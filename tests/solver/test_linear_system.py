@@ -9,12 +9,14 @@ import h5py
 import numpy as np
 import pytest
 
+from scenes.builders import demo_flag_files, sheet_shot
 from weft import _solver
 from weft.runner import ShotRunner
-from weft.scene import build_setup, load_shot_file, resolve_scene
-from weft.scene_builders import demo_flag_files, sheet_shot
+from weft.shot import load_shot_file
+from weft.simulate import new_simulation
+from weft.solver_setup import build_setup, resolve_scene
 
-from conftest import make_scene
+from tests.helpers import final_positions, make_scene
 
 
 def windy_sheet(frames: int = 3) -> dict:
@@ -49,11 +51,7 @@ def test_fast_path_is_bitwise_deterministic_across_runs_and_threads(tmp_path: Pa
 
 
 def demo_positions(scene, path: str, frames: int, threads: int) -> np.ndarray:
-    sim = _solver.Simulation(build_setup(scene, threads, path))
-    dt = 1.0 / scene.shot.fps
-    for index in range(frames):
-        sim.advance_frame(index * dt, dt, scene.shot.substeps)
-    return np.array(sim.positions)
+    return final_positions(scene, sim=new_simulation(scene, threads, path), stop=frames + 1)
 
 
 def test_fast_and_reference_paths_agree_on_the_demo(tmp_path: Path) -> None:

@@ -7,8 +7,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from weft.collision_scenes import bar_mesh, tube_mesh
-from weft.scene_builders import grid_sheet, inline_mesh, sheet_shot
+from scenes.builders import grid_sheet, inline_mesh, sheet_shot
+from scenes.collision import bar_mesh, tube_mesh
 
 RADIUS = 0.01  # the "bone"'s radius, m
 

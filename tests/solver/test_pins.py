@@ -7,12 +7,13 @@ from pathlib import Path
 
 import numpy as np
 
+from scenes.builders import sheet_shot
 from weft.cache import open_cache_reader
 from weft.runner import ShotRunner
-from weft.scene import load_shot_file, resolve_scene
-from weft.scene_builders import sheet_shot
+from weft.shot import load_shot_file
+from weft.solver_setup import resolve_scene
 
-from conftest import make_sim
+from tests.helpers import make_sim
 
 BOX_V = np.array([[0, 0, 0], [0.1, 0, 0], [0, 0.1, 0], [0, 0, 0.1]], dtype=float)
 BOX_F = [[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]]

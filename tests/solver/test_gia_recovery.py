@@ -7,13 +7,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from scenes.gia import RADIUS, bone_shot, through_shot
 from weft.cache import open_cache_reader
-from weft.gia_scenes import RADIUS, bone_shot, through_shot
 from weft.runner import ShotRunner
-from weft.scene import collision_switches
+from weft.solver_setup import collision_switches
 
-from conftest import make_scene
-from test_collisions import convex_depth, simulate
+from tests.helpers import convex_depth, final_positions, make_scene, simulate
 
 
 @pytest.mark.parametrize(
@@ -121,9 +120,5 @@ def test_gia_telemetry_is_in_the_cache(tmp_path):
 
 
 def test_recovery_does_not_depend_on_the_thread_count():
-    finals = []
-    for threads in (1, 2):
-        for index, sim, t in simulate(bone_shot(frames=4), threads=threads):
-            pass
-        finals.append(sim.positions.copy())
-    assert np.array_equal(finals[0], finals[1])
+    scene = make_scene(bone_shot(frames=4))
+    assert np.array_equal(final_positions(scene, threads=1), final_positions(scene, threads=2))

@@ -1,26 +1,19 @@
-"""The `weft` command line."""
+"""`weft validate`, `weft run`, `weft info`: a shot on this machine, into an HDF5 cache."""
 
 from __future__ import annotations
 
 import json
-import sys
 from enum import Enum
 from pathlib import Path
-from typing import Annotated, Optional
+from typing import Annotated, Any, Optional
 
 import typer
-from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 from rich.table import Table
 
-app = typer.Typer(
-    name="weft",
-    help="weft: implicit cloth simulation for film and animation pipelines.",
-    no_args_is_help=True,
-    add_completion=False,
-    pretty_exceptions_enable=False,
-)
-console = Console(stderr=True)
+from weft.cli.common import console, fail, out, shot_errors
+
+app = typer.Typer()
 
 
 class LinearSystemChoice(str, Enum):
@@ -28,27 +21,15 @@ class LinearSystemChoice(str, Enum):
     reference = "reference"
 
 
-out = Console()
+def _load_scene(shot_path: Path, linear_system: Optional[str] = None) -> Any:
+    from weft.shot import load_shot_file
+    from weft.solver_setup import resolve_scene
 
-
-def _fail(message: str, code: int = 2) -> None:
-    console.print(f"[bold red]error:[/] {message}", highlight=False)
-    raise typer.Exit(code)
-
-
-def _load_scene(shot_path: Path, linear_system: Optional[str] = None):  # type: ignore[no-untyped-def]
-    from weft.scene import ShotError, ShotValidationError, load_shot_file, resolve_scene
-
-    try:
+    with shot_errors(shot_path):
         shot = load_shot_file(shot_path)
         if linear_system is not None:  # command-line override of the shot's solver.linear_system
             shot = shot.model_copy(update={"solver": shot.solver.model_copy(update={"linear_system": linear_system})})
         return resolve_scene(shot, shot_path.parent)
-    except ShotValidationError as exc:
-        lines = "\n".join(f"  {e.field}: {e.problem}" for e in exc.errors)
-        _fail(f"{shot_path} is not a valid shot:\n{lines}")
-    except ShotError as exc:
-        _fail(f"{shot_path}: {exc}")
 
 
 @app.command()
@@ -80,7 +61,7 @@ def run(
 
     scene = _load_scene(shot, linear_system.value if linear_system else None)
     if output.exists() and not resume:
-        _fail(f"{output} exists; remove it or pass --resume to continue it")
+        fail(f"{output} exists; remove it or pass --resume to continue it")
     runner = ShotRunner(scene, output, threads=threads, frames=frames, resume=resume)
     progress = Progress(
         TextColumn("[bold]{task.description}"),
@@ -107,9 +88,9 @@ def run(
             task = progress.add_task(scene.shot.name, total=runner.frames_total, rate="")
             summary = runner.run(on_frame=on_frame)
     except SolverFailure as exc:
-        _fail(f"solver failed at frame {exc.frame}: {exc.reason} (frames before it are in {output})", code=1)
+        fail(f"solver failed at frame {exc.frame}: {exc.reason} (frames before it are in {output})", code=1)
     except CacheError as exc:
-        _fail(str(exc))
+        fail(str(exc))
     _print_summary(output, summary.wall_seconds)
 
 
@@ -144,11 +125,11 @@ def info(
     from weft.cache import CacheError, describe_cache
 
     if not cache.is_file():
-        _fail(f"no such file: {cache}")
+        fail(f"no such file: {cache}")
     try:
         summary = describe_cache(cache)
     except CacheError as exc:
-        _fail(str(exc))
+        fail(str(exc))
     if as_json:
         out.print_json(json.dumps(summary))
         return
@@ -157,20 +138,3 @@ def info(
     for key, value in summary.items():
         table.add_row(key, json.dumps(value) if isinstance(value, (dict, list)) else str(value))
     out.print(table)
-
-
-from weft.bench_cli import bench_app  # noqa: E402
-
-app.add_typer(bench_app)
-
-
-def main() -> None:  # pragma: no cover
-    app()
-
-
-if __name__ == "__main__":  # pragma: no cover
-    sys.exit(app())
-
-
-# The simulation-service commands (up, submit, status, jobs, fetch, cancel, demo).
-from weft import service_cli as _service_cli  # noqa: E402,F401

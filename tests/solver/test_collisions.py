@@ -4,36 +4,16 @@ collision switches; the exact intersection counter."""
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 
+from scenes.builders import grid_sheet, sheet_shot
+from scenes.collision import drop_shot, floor_fold_shot, thin_bar_shot, twist_shot
 from weft import _solver
-from weft.collision_scenes import drop_shot, floor_fold_shot, thin_bar_shot, twist_shot
-from weft.scene import build_setup, collision_switches
-from weft.scene_builders import grid_sheet, inline_mesh, sheet_shot
+from weft import simulate as frame_loop
+from weft.solver_setup import build_setup, collision_switches
 
-from conftest import make_scene
-
-
-def simulate(doc, base_dir: Path | None = None, threads: int = 2):
-    """Yields (frame index, simulation, telemetry) for every simulated frame."""
-    scene = make_scene(doc, base_dir)
-    sim = _solver.Simulation(build_setup(scene, threads))
-    fps, substeps = scene.shot.fps, scene.shot.substeps
-    for index in range(1, scene.frame_count):
-        for b, body in enumerate(scene.bodies):
-            sim.set_body_keyframes(b, body.frames[index - 1], body.frames[index])
-        yield index, sim, sim.advance_frame((index - 1) / fps, 1.0 / fps, substeps)
-
-
-def convex_depth(x: np.ndarray, vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    """Signed distance-like depth of points to a convex closed mesh: > 0 outside, < 0 inside."""
-    a, b, c = (vertices[faces[:, k]] for k in range(3))
-    n = np.cross(b - a, c - a)
-    n /= np.linalg.norm(n, axis=1, keepdims=True)
-    return np.max(np.einsum("vfk,fk->vf", x[:, None, :] - a[None], n), axis=1)
+from tests.helpers import convex_depth, final_positions, make_scene, simulate
 
 
 @pytest.mark.parametrize("body", ["sphere", "box"])
@@ -164,13 +144,8 @@ def test_ccd_single_and_batch_agree():
 
 
 def test_collision_stage_is_bitwise_reproducible_across_thread_counts():
-    doc = drop_shot("box", n=10, frames=10, substeps=2)
-    results = []
-    for threads in (1, 2):
-        for _, sim, _ in simulate(doc, threads=threads):
-            pass
-        results.append(sim.positions.copy())
-    assert np.array_equal(results[0], results[1])
+    scene = make_scene(drop_shot("box", n=10, frames=10, substeps=2))
+    assert np.array_equal(final_positions(scene, threads=1), final_positions(scene, threads=2))
 
 
 def test_contact_constraints_in_the_solve_keep_the_sheet_outside():
@@ -180,11 +155,9 @@ def test_contact_constraints_in_the_solve_keep_the_sheet_outside():
     settings = setup.collision
     settings.contact_constraints = True
     setup.collision = settings
-    sim = _solver.Simulation(setup)
     vertices = np.asarray(doc["bodies"][0]["mesh"]["vertices"])
     faces = np.asarray(doc["bodies"][0]["mesh"]["faces"])
-    for index in range(1, scene.frame_count):
-        t = sim.advance_frame((index - 1) / 24, 1 / 24, 4)
+    for index, sim, t in frame_loop.simulate(scene, _solver.Simulation(setup)):
         assert t.intersections == 0
         assert convex_depth(sim.positions, vertices, faces).min() > 0.0
     assert sim.positions[:, 1].min() < 0.0

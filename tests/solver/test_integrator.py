@@ -5,9 +5,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from weft.scene_builders import sheet_shot
+from scenes.builders import sheet_shot
 
-from conftest import make_sim
+from tests.helpers import make_sim
 
 G = np.array([0.0, -9.81, 0.0])
 
@@ -134,7 +134,7 @@ def test_overflowing_forces_fail_the_step_instead_of_freezing(tmp_path) -> None:
     from weft import _solver
     from weft.runner import ShotRunner, SolverFailure
 
-    from conftest import make_scene
+    from tests.helpers import make_scene
 
     doc = sheet_shot("overflow", 4, 4, 0.2, 0.2, frames=5, gravity=(0.0, -1e300, 0.0))
     with pytest.raises(SolverFailure) as failure:

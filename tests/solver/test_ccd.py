@@ -1,5 +1,5 @@
 """Conservative CCD: hand-made edge cases, then a randomized set of >= 100k near-hit and
-near-miss queries whose truth is exact (weft.ccd_queries): zero false negatives required, the
+near-miss queries whose truth is exact (bench.ccd_queries): zero false negatives required, the
 false-positive rate reported."""
 
 from __future__ import annotations
@@ -7,8 +7,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from bench.ccd_queries import make_queries, verify_with_fractions
 from weft import _solver
-from weft.ccd_queries import make_queries, verify_with_fractions
 
 TRI = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
 

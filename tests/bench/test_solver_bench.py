@@ -1,6 +1,10 @@
-"""`weft bench solver`: the table formatter and the CLI wiring (the bench itself takes minutes)."""
+"""`weft bench ...`: the solver bench's table formatter, the commands' wiring to the `bench`
+package (the solver bench itself takes minutes), and a small CCD bench run end to end."""
 
 from __future__ import annotations
+
+import json
+from pathlib import Path
 
 from typer.testing import CliRunner
 
@@ -34,7 +38,22 @@ def test_format_tables_has_every_section() -> None:
     assert abs(growth_exponent([1.0, 2.0, 4.0], [3.0, 6.0, 12.0]) - 1.0) < 1e-12
 
 
-def test_bench_solver_command_is_registered() -> None:
-    result = CliRunner().invoke(app, ["bench", "solver", "--help"])
-    assert result.exit_code == 0
-    assert "--json" in result.output and "--threads" in result.output
+def test_bench_solver_command_passes_its_options_to_the_bench(monkeypatch, tmp_path: Path) -> None:
+    import bench.solver_bench
+
+    calls = []
+    monkeypatch.setattr(bench.solver_bench, "main", lambda **kwargs: calls.append(kwargs))
+    result = CliRunner().invoke(app, ["bench", "solver", "--threads", "3", "--json", str(tmp_path / "b.json"), "--quick"])
+    assert result.exit_code == 0, result.output
+    assert calls == [{"threads": 3, "json_path": tmp_path / "b.json", "quick": True}]
+
+
+def test_bench_ccd_runs_with_zero_false_negatives() -> None:
+    result = CliRunner().invoke(app, ["bench", "ccd", "--queries", "1000", "--sizes", "6", "--frames", "3", "--json"])
+    assert result.exit_code == 0, result.output
+    figures = json.loads(result.output)
+    assert [q["query"] for q in figures["queries"]] == ["vertex-triangle", "edge-edge"]
+    for q in figures["queries"]:
+        assert q["queries"] == 1000 and q["hits_true"] > 0 and q["false_negatives"] == 0
+    (twist,) = figures["twist"]
+    assert twist["vertices"] == 36 and twist["frames"] == 2 and twist["max_intersections"] == 0

@@ -1,5 +1,5 @@
 """`weft up`, `weft submit`, `weft status`, `weft jobs`, `weft fetch`, `weft cancel`, `weft demo`:
-the simulation service from the command line (registered into ``weft.cli.app``).
+the simulation service from the command line.
 
 Client commands find the server through ``--server`` or ``WEFT_SERVER``, else the stack that
 `weft up` started (``$WEFT_HOME/stack.json``, WEFT_HOME defaulting to ``~/.weft``), and send
@@ -22,7 +22,9 @@ import typer
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 from rich.table import Table
 
-from weft.cli import _fail, app, console, out
+from weft.cli.common import console, fail, out, shot_errors
+
+app = typer.Typer()
 
 DEFAULT_PORT = 8421
 ServerOption = Annotated[
@@ -62,9 +64,9 @@ def api(server: str | None) -> Iterator[httpx.Client]:
         try:
             yield client
         except httpx.ConnectError:
-            _fail(f"cannot reach the weft server at {url} (is `weft up` running? set --server or WEFT_SERVER)")
+            fail(f"cannot reach the weft server at {url} (is `weft up` running? set --server or WEFT_SERVER)")
         except httpx.HTTPError as exc:
-            _fail(f"request to {url} failed: {exc}")
+            fail(f"request to {url} failed: {exc}")
 
 
 def checked(response: httpx.Response) -> Any:
@@ -76,7 +78,7 @@ def checked(response: httpx.Response) -> Any:
         errors = [f"  {e.get('field') or '-'}: {e.get('problem')}" for e in body.get("errors", [])]
     except ValueError:
         detail, errors = response.text, []
-    _fail(f"HTTP {response.status_code}: {detail}" + ("\n" + "\n".join(errors) if len(errors) > 1 else ""))
+    fail(f"HTTP {response.status_code}: {detail}" + ("\n" + "\n".join(errors) if len(errors) > 1 else ""))
 
 
 def follow_job(client: httpx.Client, job_id: str, total: int, label: str) -> dict[str, Any]:
@@ -144,14 +146,11 @@ def submit_shot(client: httpx.Client, shot_path: Path, idempotency_key: str | No
     """Upload a shot file and the asset files it references (multipart)."""
     import yaml
 
-    from weft.scene import ShotError, ShotValidationError, asset_paths, load_shot_file
+    from weft.assets import asset_paths
+    from weft.shot import load_shot_file
 
-    try:
+    with shot_errors(shot_path):
         shot = load_shot_file(shot_path)
-    except ShotValidationError as exc:
-        _fail(f"{shot_path} is not a valid shot:\n" + "\n".join(f"  {e.field}: {e.problem}" for e in exc.errors))
-    except ShotError as exc:
-        _fail(f"{shot_path}: {exc}")
     document = yaml.safe_load(shot_path.read_text()) if shot_path.suffix.lower() in {".yaml", ".yml"} else json.loads(shot_path.read_text())
     files: list[tuple[str, Any]] = [("shot", ("shot.json", json.dumps(document, default=str), "application/json"))]
     handles = []
@@ -159,7 +158,7 @@ def submit_shot(client: httpx.Client, shot_path: Path, idempotency_key: str | No
         for relative in sorted(asset_paths(shot)):
             path = shot_path.parent / relative
             if not path.is_file():
-                _fail(f"{shot_path}: asset {relative} not found next to the shot")
+                fail(f"{shot_path}: asset {relative} not found next to the shot")
             handles.append(open(path, "rb"))  # noqa: SIM115 - closed below
             files.append(("assets", (relative, handles[-1], "application/octet-stream")))
         headers = {"Idempotency-Key": idempotency_key} if idempotency_key else {}
@@ -280,7 +279,7 @@ def up(
     try:
         stack = _start_stack(storage, workers, port)
     except RuntimeError as exc:
-        _fail(str(exc))
+        fail(str(exc))
     stack_file = weft_home() / "stack.json"
     stack_file.parent.mkdir(parents=True, exist_ok=True)
     stack_file.write_text(json.dumps({"url": stack.url, "pid": os.getpid(), "storage": str(stack.storage)}))

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import time
 
 import numpy as np
 import pytest
@@ -329,27 +328,25 @@ def test_bad_input_is_rejected():
         _solver.points_inside_closed_mesh(xa, xa, fa)
 
 
-def test_speed_20k_triangle_pair(capsys):
-    # Two 101 x 101 sheets (20k triangles each): a flat one and an egg-crate crossing it many times.
+def test_20k_triangle_pair_prunes_to_the_crossings_and_agrees_with_the_exact_counter():
+    # Two 101 x 101 sheets (20k triangles each): a flat one and an egg-crate crossing it many
+    # times. The cost is checked by what the analysis did, not by a wall time (that is bench/'s).
     xa, fa = plane([0, 0, 0], [1, 0, 0], [0, 1, 0], 101, 101)
     t = np.linspace(0, 1, 101)
     xb, fb = sheet(t + 0.0031, t + 0.0047, lambda uu, vv: np.stack([uu, vv, 0.02 * np.sin(6 * np.pi * uu) * np.sin(6 * np.pi * vv) + 0.001], -1))
     assert len(fa) == len(fb) == 20000
-    start = time.perf_counter()
     r = _solver.intersection_analysis(xa, fa, xb, fb)
-    elapsed = time.perf_counter() - start
     check_consistent(r)
     single = _solver.intersection_analysis(xa, fa, xb, fb, threads=1)
     np.testing.assert_array_equal(single["a"]["vertex_colour"], r["a"]["vertex_colour"])
     np.testing.assert_array_equal(single["hits"]["edge"], r["hits"]["edge"])
-    with capsys.disabled():
-        print(
-            f"\nGIA 20k x 20k triangles: {elapsed:.3f} s wall ({r['seconds']:.3f} s in C++), "
-            f"{r['candidate_pairs']} candidate pairs, {r['hit_count']} hits, {r['path_count']} paths "
-            f"({r['closed_path_count']} closed), coloured A {r['a']['coloured_vertex_count']} / B {r['b']['coloured_vertex_count']}"
-        )
+    # Every intersecting triangle pair is found, as the independent exact counter counts them.
+    exact = _solver.count_mesh_intersections(xa, fa.astype(np.int32), xb, fb.astype(np.int32))
+    assert r["intersecting_pairs"] == exact > 1000
+    # The broad phase prunes the 4e8 pairs to a few candidates per crossing pair.
+    assert r["intersecting_pairs"] <= r["candidate_pairs"] < 10 * r["intersecting_pairs"]
+    assert r["path_count"] == r["closed_path_count"] + r["open_path_count"]
     assert r["closed_path_count"] > 10
-    assert elapsed < 5.0
 
 
 def test_body_body_query_for_pinch_detection():

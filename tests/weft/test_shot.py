@@ -10,8 +10,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from weft.scene import ShotError, ShotValidationError, load_shot_file, parse_shot, resolve_scene
-from weft.scene_builders import sheet_shot
+from scenes.builders import sheet_shot
+from weft.shot import ShotError, ShotValidationError, load_shot_file, parse_shot
+from weft.solver_setup import resolve_scene
 
 
 def base_doc() -> dict:

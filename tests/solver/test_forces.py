@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from scenes.builders import sheet_shot
 from weft import _solver
-from weft.scene_builders import sheet_shot
 
-from conftest import make_sim
+from tests.helpers import make_sim
 
 T = _solver.ForceTerm
 STEP = 1e-6

@@ -1,4 +1,4 @@
-"""A sleeve on a thin limb swung fast (a skeleton-like arm, weft.collision_scenes.sleeve_shot):
+"""A sleeve on a thin limb swung fast (a skeleton-like arm, scenes.collision.sleeve_shot):
 the sleeve never ends a frame on the wrong side of the limb, with GIA on (its membrane must not
 weaken CCD) and with the default switches. The limb rotates, so impact zones caught on it move
 with its affine velocity field (docs/collisions.md)."""
@@ -8,10 +8,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from scenes.collision import sleeve_shot, swing_angles
 from weft import _solver
-from weft.collision_scenes import sleeve_shot, swing_angles
 
-from test_collisions import simulate
+from tests.helpers import simulate
 
 AROUND = 16  # sleeve vertices per ring (sleeve_shot)
 

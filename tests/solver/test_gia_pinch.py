@@ -8,15 +8,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from scenes.builders import inline_mesh, sheet_shot
+from scenes.collision import box_mesh, box_pinch_shot
 from weft import _solver
 from weft.cache import open_cache_reader
-from weft.collision_scenes import box_mesh, box_pinch_shot
 from weft.runner import ShotRunner
-from weft.scene import bodies_intersect_each_other, build_setup, collision_switches
-from weft.scene_builders import inline_mesh, sheet_shot
+from weft.simulate import simulate
+from weft.solver_setup import bodies_intersect_each_other, build_setup, collision_switches
 
-from conftest import make_scene
-from test_collisions import convex_depth
+from tests.helpers import convex_depth, final_positions, make_scene
 
 CLOSE, HOLD = 5, 6  # box_pinch_shot defaults
 BOX_SPEED = (0.05 + 0.003) / CLOSE * 24.0  # the upper box's speed while it moves, m/s (0.25)
@@ -44,13 +44,8 @@ def run_pinch(tmp_path, body_pinch: bool = True, depth: float = 0.003) -> list[d
     assert collision_switches(scene)["gia"] == 1  # auto: the boxes intersect at some frame
     setup = build_setup(scene, 2)
     setup.collision.body_pinch = body_pinch
-    sim = _solver.Simulation(setup)
-    fps, substeps = scene.shot.fps, scene.shot.substeps
     rows = []
-    for index in range(1, scene.frame_count):
-        for b, body in enumerate(scene.bodies):
-            sim.set_body_keyframes(b, body.frames[index - 1], body.frames[index])
-        t = sim.advance_frame((index - 1) / fps, 1.0 / fps, substeps)
+    for index, sim, t in simulate(scene, _solver.Simulation(setup)):
         x = sim.positions
         rows.append({
             "frame": index, "pairs": t.gia_pinched_body_pairs, "intersections": t.intersections,
@@ -199,12 +194,4 @@ def test_gia_switch_turns_on_when_bodies_meet_at_a_later_frame(tmp_path):
 
 def test_pinch_does_not_depend_on_the_thread_count(tmp_path):
     scene = make_scene(box_pinch_shot(tmp_path, close=2, hold=2, after=1, travel=0.004), tmp_path)
-    finals = []
-    for threads in (1, 2):
-        sim = _solver.Simulation(build_setup(scene, threads))
-        for index in range(1, scene.frame_count):
-            for b, body in enumerate(scene.bodies):
-                sim.set_body_keyframes(b, body.frames[index - 1], body.frames[index])
-            t = sim.advance_frame((index - 1) / 24.0, 1.0 / 24.0, scene.shot.substeps)
-        finals.append(sim.positions.copy())
-    assert np.array_equal(finals[0], finals[1])
+    assert np.array_equal(final_positions(scene, threads=1), final_positions(scene, threads=2))

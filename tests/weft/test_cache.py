@@ -5,13 +5,12 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
 
+from scenes.builders import sheet_shot
 from weft.cache import describe_cache, open_cache_reader
-from weft.scene_builders import sheet_shot
 
 
 def write_shot(tmp_path: Path, frames: int, n: int = 12, substeps: int = 2) -> Path:
@@ -54,33 +53,43 @@ def test_rows_per_frame_and_info(tmp_path) -> None:
     assert summary["mean_seconds_per_frame"]["solve"] > 0
 
 
+READER = """
+import json, sys
+import numpy as np
+from weft.cache import open_cache_reader
+with open_cache_reader(sys.argv[1]) as f:
+    rows = f["frames/positions"].shape[0]
+    print(json.dumps({"rows": rows, "telemetry": f["telemetry"].shape[0], "frames": f["frames/frame"][()].tolist(),
+                      "finite": bool(np.isfinite(f["frames/positions"][rows - 1]).all()),
+                      "status": str(f.attrs["status"])}))
+"""
+
+
 def test_reader_sees_frames_while_run_is_writing(tmp_path) -> None:
-    shot = write_shot(tmp_path, frames=400, n=24, substeps=4)
+    """Another process opens the cache while the run holds it open for writing: the run is paused
+    in its frame callback, so the reader must see exactly the frames finished so far."""
+    from weft.runner import FrameRecord, ShotRunner
+    from weft.shot import load_shot_file
+    from weft.solver_setup import resolve_scene
+
+    shot = write_shot(tmp_path, frames=8)
     cache = tmp_path / "live.h5"
-    proc = subprocess.Popen([sys.executable, "-m", "weft.cli", "run", str(shot), "-o", str(cache), "--quiet"],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    try:
-        seen: list[int] = []
-        deadline = time.monotonic() + 120
-        while time.monotonic() < deadline and len(set(seen)) < 3:
-            if cache.exists():
-                try:
-                    with open_cache_reader(cache) as f:
-                        rows = f["frames/positions"].shape[0]
-                        if rows:
-                            assert f["telemetry"].shape[0] == rows
-                            assert f["frames/frame"].shape[0] == rows
-                            assert np.isfinite(f["frames/positions"][rows - 1]).all()
-                            seen.append(rows)
-                except OSError:
-                    pass  # the file is being created
-            time.sleep(0.05)
-        assert proc.poll() is None, "the run finished before the reader saw it in progress"
-        assert len(set(seen)) >= 3 and seen == sorted(seen)
-        assert max(seen) < 400
-    finally:
-        proc.kill()
-        proc.wait()
+    seen: dict[int, dict] = {}
+
+    def read_while_writing(record: FrameRecord) -> None:
+        if record.index in (0, 3, 6):
+            reader = subprocess.run([sys.executable, "-c", READER, str(cache)], capture_output=True, text=True,
+                                    timeout=120)
+            assert reader.returncode == 0, reader.stderr
+            seen[record.index] = json.loads(reader.stdout)
+
+    summary = ShotRunner(resolve_scene(load_shot_file(shot), tmp_path), cache).run(on_frame=read_while_writing)
+    assert summary.status == "complete" and summary.frames_written == 8
+    assert sorted(seen) == [0, 3, 6]
+    for index, view in seen.items():
+        assert view["rows"] == view["telemetry"] == index + 1
+        assert view["frames"] == list(range(1, index + 2))
+        assert view["finite"] and view["status"] == "running"
 
 
 def test_resume_is_bitwise_identical(tmp_path) -> None:

@@ -1,0 +1,77 @@
+"""The frame loop: the one place where a shot's frame index becomes a call into the solver.
+
+Frame 0 of the range is the initial state. Frame ``index`` >= 1 moves the bodies from their
+keyframe ``index - 1`` to ``index`` and takes ``shot.substeps`` implicit steps of the frame's
+duration. The runner (cache, resume), the tests and the benchmarks all step through here, so
+they simulate exactly the same thing; ``telemetry_row`` turns the solver's per-frame record
+into the schema's ``FrameTelemetry``, field by field.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from typing import Any
+
+import numpy as np
+
+from api_schemas import FrameTelemetry
+from weft.solver_setup import Scene, build_setup
+
+
+class SolverFailure(RuntimeError):
+    """The solver failed at a frame; frames before it are in the cache."""
+
+    def __init__(self, frame: int, reason: str) -> None:
+        super().__init__(f"frame {frame}: {reason}")
+        self.frame = frame
+        self.reason = reason
+
+
+def new_simulation(scene: Scene, threads: int = 1, linear_system: str | None = None) -> Any:
+    """The solver's Simulation for a scene, at its initial state (frame 0)."""
+    from weft import _solver
+
+    return _solver.Simulation(build_setup(scene, threads, linear_system))
+
+
+def advance(sim: Any, scene: Scene, index: int) -> Any:
+    """Simulate frame ``index`` (1 .. frame_count - 1); returns the solver's FrameTelemetry.
+    Raises SolverFailure (with the frame number) when the solver diverges or leaves non-finite
+    positions."""
+    from weft import _solver
+
+    shot = scene.shot
+    frame = shot.frame_range[0] + index
+    dt = 1.0 / shot.fps
+    for b, body in enumerate(scene.bodies):
+        sim.set_body_keyframes(b, body.frames[index - 1], body.frames[index])
+    try:
+        t = sim.advance_frame((index - 1) * dt, dt, shot.substeps)
+    except _solver.SolverDivergence as exc:
+        raise SolverFailure(frame, str(exc)) from None
+    if not np.isfinite(sim.positions).all():
+        raise SolverFailure(frame, "non-finite positions")
+    return t
+
+
+def simulate(scene: Scene, sim: Any = None, threads: int = 1, start: int = 1,
+             stop: int | None = None) -> Iterator[tuple[int, Any, Any]]:
+    """Yields (frame index, simulation, solver telemetry) for frames start .. stop - 1 (default:
+    every simulated frame of the shot). A new Simulation is made unless ``sim`` is given."""
+    sim = new_simulation(scene, threads) if sim is None else sim
+    for index in range(start, scene.frame_count if stop is None else stop):
+        yield index, sim, advance(sim, scene, index)
+
+
+def telemetry_row(frame: int, t: Any) -> FrameTelemetry:
+    """The schema's row for a simulated frame, read field by field from the solver's record."""
+    return FrameTelemetry(frame=frame, **{k: getattr(t, k) for k in FrameTelemetry.model_fields if k != "frame"})
+
+
+def initial_telemetry(frame: int, sim: Any) -> FrameTelemetry:
+    """The row for the initial frame: every required figure zero (no substeps, no time), the
+    optional ones at their defaults, and the state's energies."""
+    e = sim.energies()
+    zeros = {name: 0 for name, info in FrameTelemetry.model_fields.items() if info.is_required()}
+    return FrameTelemetry(**{**zeros, "frame": frame, "kinetic_energy": e.kinetic,
+                             "potential_energy": e.gravity + e.elastic})

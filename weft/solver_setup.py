@@ -1,0 +1,393 @@
+"""Turn a validated Shot plus its asset files into flat arrays and the C++ solver's setup.
+
+``resolve_scene`` loads and checks every asset (``weft.assets``) and concatenates the cloth pieces
+into a Scene; ``build_setup`` turns a Scene into the solver's SimulationSetup; the collision
+switches (``collision_switches``: "model only what a scene needs") decide which features the
+solver runs. Problems are ShotErrors located by field path.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from api_schemas import ArrayAsset, Shot
+from weft.assets import check_finite, load_array, load_mesh, shot_hash
+from weft.shot import ShotError
+
+
+@dataclass
+class BodyArrays:
+    name: str
+    faces: np.ndarray  # (F, 3) int32
+    frames: np.ndarray  # (frame_count, V, 3) float64
+
+
+@dataclass
+class PieceArrays:
+    name: str
+    vertex_offset: int
+    vertex_count: int
+    face_offset: int
+    faces: np.ndarray  # (F, 3) int32, local indices
+
+
+@dataclass
+class Scene:
+    """A shot with every asset loaded and checked; cloth pieces concatenated."""
+
+    shot: Shot
+    shot_hash: str
+    pieces: list[PieceArrays]
+    positions: np.ndarray
+    velocities: np.ndarray
+    faces: np.ndarray
+    face_uv: np.ndarray  # (F, 6)
+    rest_positions: np.ndarray  # (N, 3) or (0, 3) for flat (uv) rest shapes
+    face_material: dict[str, np.ndarray]
+    fixed_pins: np.ndarray
+    body_pin_vertices: np.ndarray
+    body_pin_bodies: np.ndarray
+    bodies: list[BodyArrays] = field(default_factory=list)
+
+    @property
+    def vertex_count(self) -> int:
+        return int(self.positions.shape[0])
+
+    @property
+    def frame_count(self) -> int:
+        return self.shot.frame_count
+
+
+def triangle_uvs_from_positions(positions: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """Per-corner (u, v) of each triangle flattened into its own plane, in metres.
+
+    The warp direction u is world X projected onto the triangle (world Y where the triangle
+    faces X); v completes a right-handed frame with the normal. Give explicit UVs for control.
+    """
+    p0, p1, p2 = (positions[faces[:, k]] for k in range(3))
+    normal = np.cross(p1 - p0, p2 - p0)
+    length = np.linalg.norm(normal, axis=1, keepdims=True)
+    normal = normal / np.where(length > 0.0, length, 1.0)
+    axis = np.where(np.abs(normal[:, :1]) > 0.9, np.array([[0.0, 1.0, 0.0]]), np.array([[1.0, 0.0, 0.0]]))
+    u_dir = axis - np.sum(axis * normal, axis=1, keepdims=True) * normal
+    u_dir /= np.maximum(np.linalg.norm(u_dir, axis=1, keepdims=True), 1e-300)
+    v_dir = np.cross(normal, u_dir)
+    uv = np.zeros((len(faces), 6))
+    for k, p in enumerate((p0, p1, p2)):
+        d = p - p0
+        uv[:, 2 * k] = np.sum(d * u_dir, axis=1)
+        uv[:, 2 * k + 1] = np.sum(d * v_dir, axis=1)
+    return uv
+
+
+def check_rest_areas(face_uv: np.ndarray, field_path: str) -> None:
+    e1 = face_uv[:, 2:4] - face_uv[:, 0:2]
+    e2 = face_uv[:, 4:6] - face_uv[:, 0:2]
+    twice_area = np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
+    scale = np.maximum(np.sum(e1 * e1, axis=1), np.sum(e2 * e2, axis=1))
+    degenerate = ~(twice_area > 1e-12 * scale) | ~(twice_area > 1e-16)
+    if degenerate.any():
+        f = int(np.argmax(degenerate))
+        raise ShotError(f"{field_path}[{f}]", "rest triangle has zero area")
+
+
+def piece_self_collide(shot: Shot) -> list[bool]:
+    """Per cloth piece: whether its faces take part in cloth/cloth collisions (see
+    `collision_switches`)."""
+    features = shot.features
+    has_bodies = len(shot.bodies) > 0
+    self_default = (
+        features.self_collision if features.self_collision is not None else (has_bodies or len(shot.cloth) > 1)
+    )
+    return [
+        bool((p.self_collide if p.self_collide is not None else self_default) and features.self_collision is not False)
+        for p in shot.cloth
+    ]
+
+
+def check_features(shot: Shot) -> None:
+    """Refuse physics a shot asks for that this build does not provide (never ignore it)."""
+    if shot.features.gia and not any(b.collide for b in shot.bodies) and not any(piece_self_collide(shot)):
+        raise ShotError(
+            "features.gia",
+            "global intersection analysis needs a collidable body or self-collision (features.self_collision); "
+            "this shot has neither, so there is nothing to analyse",
+        )
+
+
+def resolve_scene(shot: Shot, base_dir: str | Path) -> Scene:
+    """Load every asset of a shot, check it, and concatenate the cloth pieces."""
+    base_dir = Path(base_dir)
+    check_features(shot)
+    positions, velocities, faces, face_uv, rest = [], [], [], [], []
+    materials: dict[str, list[np.ndarray]] = {
+        k: [] for k in ("density", "stretch_warp", "stretch_weft", "shear", "bend", "damping")
+    }
+    pieces: list[PieceArrays] = []
+    fixed_pins: list[int] = []
+    body_pin_vertices: list[int] = []
+    body_pin_bodies: list[int] = []
+    body_index = {b.name: i for i, b in enumerate(shot.bodies)}
+    vertex_offset = face_offset = 0
+    for i, piece in enumerate(shot.cloth):
+        where = f"cloth[{i}]"
+        vertices, piece_faces = load_mesh(base_dir, piece.mesh, where + ".mesh")
+        unused = np.setdiff1d(np.arange(len(vertices)), np.unique(piece_faces))
+        if len(unused):
+            raise ShotError(
+                where + ".mesh",
+                f"{len(unused)} vertices belong to no face (first: {unused[:5].tolist()}); remove them",
+            )
+        if piece.rest.kind == "uv":
+            uv = _rest_array(base_dir, piece.rest.face_uvs, where + ".rest.face_uvs")
+            if uv.shape not in {(len(piece_faces), 3, 2), (len(piece_faces), 6)}:
+                raise ShotError(
+                    where + ".rest.face_uvs", f"shape {uv.shape} does not match ({len(piece_faces)}, 3, 2)"
+                )
+            check_finite(uv.reshape(len(piece_faces), 6), where + ".rest.face_uvs")
+            piece_uv = uv.reshape(len(piece_faces), 6)
+            piece_rest = np.full((len(vertices), 3), np.nan)
+            uv_field = where + ".rest.face_uvs"
+        else:
+            if piece.rest.kind == "positions":
+                piece_rest = _rest_array(base_dir, piece.rest.positions, where + ".rest.positions")
+                if piece_rest.shape != vertices.shape:
+                    raise ShotError(
+                        where + ".rest.positions",
+                        f"shape {piece_rest.shape} does not match the mesh's vertices {vertices.shape}",
+                    )
+                check_finite(piece_rest, where + ".rest.positions")
+                uv_field = where + ".rest.positions: triangle"
+            else:
+                piece_rest = vertices
+                uv_field = where + ".mesh.faces"
+            piece_uv = triangle_uvs_from_positions(piece_rest, piece_faces)
+        check_rest_areas(piece_uv, uv_field)
+
+        for j, pin in enumerate(piece.pins):
+            indices = np.asarray(pin.vertices, dtype=np.int64)
+            bad = (indices < 0) | (indices >= len(vertices))
+            if bad.any():
+                k = int(np.argmax(bad))
+                raise ShotError(
+                    f"{where}.pins[{j}].vertices[{k}]",
+                    f"vertex {indices[k]} out of range (mesh has {len(vertices)} vertices)",
+                )
+            if pin.body is None:
+                fixed_pins.extend((indices + vertex_offset).tolist())
+            else:
+                body_pin_vertices.extend((indices + vertex_offset).tolist())
+                body_pin_bodies.extend([body_index[pin.body]] * len(indices))
+
+        pieces.append(PieceArrays(piece.name, vertex_offset, len(vertices), face_offset, piece_faces.astype(np.int32)))
+        positions.append(vertices)
+        velocities.append(np.tile(np.asarray(piece.initial_velocity, dtype=np.float64), (len(vertices), 1)))
+        faces.append(piece_faces + vertex_offset)
+        face_uv.append(piece_uv)
+        rest.append(piece_rest)
+        m = piece.material
+        for key in materials:
+            materials[key].append(np.full(len(piece_faces), float(getattr(m, key))))
+        vertex_offset += len(vertices)
+        face_offset += len(piece_faces)
+
+    all_pins = fixed_pins + body_pin_vertices
+    if len(set(all_pins)) != len(all_pins):
+        raise ShotError("cloth.pins", "a vertex is pinned more than once")
+
+    bodies = [_load_body(base_dir, shot, i) for i in range(len(shot.bodies))]
+    all_flat = all(p.rest.kind == "uv" for p in shot.cloth)
+    # Pieces with a flat (uv) rest shape have no 3D rest positions: NaN rows tell the solver
+    # that their rest bending angles are zero.
+    rest_positions = np.concatenate(rest) if not all_flat else np.zeros((0, 3))
+    return Scene(
+        shot=shot,
+        shot_hash=shot_hash(shot, base_dir),
+        pieces=pieces,
+        positions=np.ascontiguousarray(np.concatenate(positions)),
+        velocities=np.ascontiguousarray(np.concatenate(velocities)),
+        faces=np.ascontiguousarray(np.concatenate(faces).astype(np.int32)),
+        face_uv=np.ascontiguousarray(np.concatenate(face_uv)),
+        rest_positions=np.ascontiguousarray(rest_positions),
+        face_material={k: np.concatenate(v) for k, v in materials.items()},
+        fixed_pins=np.asarray(fixed_pins, dtype=np.int32),
+        body_pin_vertices=np.asarray(body_pin_vertices, dtype=np.int32),
+        body_pin_bodies=np.asarray(body_pin_bodies, dtype=np.int32),
+        bodies=bodies,
+    )
+
+
+def _rest_array(base_dir: Path, value: Any, field_path: str) -> np.ndarray:
+    if isinstance(value, ArrayAsset):
+        return load_array(base_dir, value, field_path)
+    return np.asarray(value, dtype=np.float64)
+
+
+def _load_body(base_dir: Path, shot: Shot, i: int) -> BodyArrays:
+    body = shot.bodies[i]
+    where = f"bodies[{i}]"
+    vertices, faces = load_mesh(base_dir, body.mesh, where + ".mesh")
+    count = shot.frame_count
+    if body.animation is None:
+        frames = np.broadcast_to(vertices, (count, *vertices.shape))
+    else:
+        frames = load_array(base_dir, body.animation, where + ".animation")
+        if frames.ndim != 3 or frames.shape[2] != 3:
+            raise ShotError(where + ".animation", f"shape {frames.shape} is not (frames, vertices, 3)")
+        if frames.shape[1] != len(vertices):
+            raise ShotError(
+                where + ".animation",
+                f"has {frames.shape[1]} vertices per frame but the body mesh has {len(vertices)}",
+            )
+        if frames.shape[0] != count:
+            raise ShotError(
+                where + ".animation",
+                f"has {frames.shape[0]} frames but frame_range {list(shot.frame_range)} has {count}",
+            )
+        check_finite(frames, where + ".animation")
+    return BodyArrays(body.name, faces.astype(np.int32), frames)
+
+
+def build_setup(scene: Scene, threads: int = 1, linear_system: str | None = None) -> Any:
+    """The C++ SimulationSetup for a scene. linear_system ('fast' or 'reference') overrides the shot's."""
+    from weft import _solver
+
+    shot = scene.shot
+    setup = _solver.SimulationSetup()
+    setup.positions = scene.positions
+    setup.velocities = scene.velocities
+    setup.faces = scene.faces
+    setup.face_uv = scene.face_uv
+    setup.rest_positions = scene.rest_positions
+    setup.face_density = scene.face_material["density"]
+    setup.face_stretch_warp = scene.face_material["stretch_warp"]
+    setup.face_stretch_weft = scene.face_material["stretch_weft"]
+    setup.face_shear = scene.face_material["shear"]
+    setup.face_bend = scene.face_material["bend"]
+    setup.face_damping = scene.face_material["damping"]
+    env = _solver.Environment()
+    env.gravity = np.asarray(shot.environment.gravity, dtype=np.float64)
+    env.air_drag = shot.environment.air_drag
+    if shot.environment.wind is not None:
+        env.wind_velocity = np.asarray(shot.environment.wind.velocity, dtype=np.float64)
+        env.gust_amplitude = shot.environment.wind.gust_amplitude
+        env.gust_frequency = shot.environment.wind.gust_frequency
+    setup.environment = env
+    setup.fixed_pin_vertices = scene.fixed_pins.tolist()
+    setup.body_pin_vertices = scene.body_pin_vertices.tolist()
+    setup.body_pin_bodies = scene.body_pin_bodies.tolist()
+    setup.body_faces = [b.faces for b in scene.bodies]
+    setup.body_positions = [np.ascontiguousarray(b.frames[0]) for b in scene.bodies]
+    solver = _solver.SolverSettings()
+    solver.cg_tolerance = shot.solver.cg_tolerance
+    solver.cg_max_iterations = shot.solver.cg_max_iterations
+    solver.threads = threads
+    solver.linear_system = {"fast": _solver.LinearSystemKind.FAST, "reference": _solver.LinearSystemKind.REFERENCE}[
+        linear_system or shot.solver.linear_system
+    ]
+    solver.matrix_precision = {"float32": _solver.MatrixPrecision.FLOAT32, "float64": _solver.MatrixPrecision.FLOAT64}[
+        shot.solver.matrix_precision
+    ]
+    setup.solver = solver
+    setup.collision = collision_settings(scene)
+    return setup
+
+
+def collision_switches(scene: Scene) -> dict[str, Any]:
+    """Resolve the shot's collision switches (None means: decided by what the scene contains).
+
+    - Cloth/body contact (``features.collisions``, per piece ``collide``, per body ``collide``):
+      on when the scene has bodies.
+    - Self-collision (``features.self_collision``, per piece ``self_collide``): on when the
+      scene has bodies or more than one cloth piece (cloth that drapes, folds or layers); off
+      for a single free piece such as a flag, which then pays nothing for it. Cloth/cloth pairs
+      are tested between faces that both have self-collision on, also across pieces.
+    - CCD (``features.ccd``): on whenever any collision is on.
+    - GIA (``features.gia``): recovery of cloth inside or through closed bodies, body/body
+      pinch states (CCD off for cloth caught where two collidable bodies intersect each other)
+      and cloth/cloth untangling (with self-collision). None means on when two collidable bodies
+      intersect each other at some animation frame (decided here,
+      ``bodies_intersect_each_other``: exact test per frame, bounding boxes first) or, failing
+      that, when the cloth starts in intersection: some cloth vertex or triangle through a
+      closed collidable body, or the self-colliding cloth self-intersecting (decided by the
+      solver at setup, exact tests: ``gia`` stays -1 here). Off when there is neither a
+      collidable body nor self-collision.
+    A switch set to false at the scene level turns the feature off for every piece.
+    """
+    shot = scene.shot
+    features = shot.features
+    has_bodies = len(shot.bodies) > 0
+    body_default = features.collisions if features.collisions is not None else has_bodies
+    piece_collide = [
+        bool(body_default and (p.collide if p.collide is not None else True) and features.collisions is not False)
+        for p in shot.cloth
+    ]
+    piece_self = piece_self_collide(shot)
+    body_collide = [bool(b.collide) for b in shot.bodies]
+    any_body = any(piece_collide) and any(body_collide)
+    enabled = any_body or any(piece_self)
+    ccd = enabled and (features.ccd if features.ccd is not None else True)
+    gia = (-1 if features.gia is None else int(bool(features.gia))) if (any_body or any(piece_self)) else 0
+    if gia == -1 and any_body and bodies_intersect_each_other(scene, body_collide):
+        gia = 1
+    return {
+        "enabled": enabled,
+        "ccd": ccd,
+        "gia": gia,
+        "piece_collide": piece_collide,
+        "piece_self_collide": piece_self,
+        "body_collide": body_collide,
+    }
+
+
+def bodies_intersect_each_other(scene: Scene, body_collide: list[bool] | None = None) -> bool:
+    """Whether two collidable bodies intersect each other (surfaces cross, or a vertex of one is
+    inside the other, closed, body) at some animation frame. Exact (``_solver.body_intersection``);
+    frames whose bounding boxes do not overlap are skipped, and a frame where both bodies are
+    where they were at the last tested frame reuses its answer, so long or static shots stay cheap.
+    Motion between keyframes is not looked at."""
+    from weft import _solver
+
+    bodies = [b for b, c in zip(scene.bodies, body_collide or [True] * len(scene.bodies)) if c]
+    if len(bodies) < 2:
+        return False
+    lo = [b.frames.min(axis=1) for b in bodies]  # (frames, 3) per body
+    hi = [b.frames.max(axis=1) for b in bodies]
+    for i in range(len(bodies)):
+        for j in range(i + 1, len(bodies)):
+            overlap = np.all((lo[i] <= hi[j]) & (lo[j] <= hi[i]), axis=1)
+            last: tuple[np.ndarray, np.ndarray] | None = None
+            for k in np.flatnonzero(overlap):
+                xa, xb = bodies[i].frames[k], bodies[j].frames[k]
+                if last is not None and np.array_equal(xa, last[0]) and np.array_equal(xb, last[1]):
+                    continue  # same as the last tested frame: not intersecting
+                if _solver.body_intersection(np.ascontiguousarray(xa), bodies[i].faces,
+                                             np.ascontiguousarray(xb), bodies[j].faces)["intersecting"]:
+                    return True
+                last = (xa, xb)
+    return False
+
+
+def collision_settings(scene: Scene) -> Any:
+    """The C++ CollisionSettings: per-face switches, thickness and friction from the pieces."""
+    from weft import _solver
+
+    switches = collision_switches(scene)
+    settings = _solver.CollisionSettings()
+    settings.enabled = switches["enabled"]
+    if not settings.enabled:
+        return settings
+    settings.ccd = switches["ccd"]
+    settings.gia = switches["gia"]
+    counts = [len(p.faces) for p in scene.pieces]
+    materials = [piece.material for piece in scene.shot.cloth]
+    settings.face_collide = np.repeat(switches["piece_collide"], counts).astype(bool).tolist()
+    settings.face_self_collide = np.repeat(switches["piece_self_collide"], counts).astype(bool).tolist()
+    settings.body_collide = switches["body_collide"]
+    settings.face_thickness = np.repeat([m.thickness for m in materials], counts).astype(np.float64)
+    settings.face_friction = np.repeat([m.friction for m in materials], counts).astype(np.float64)
+    return settings
