@@ -6,7 +6,7 @@ animation as HDF5 or NPZ arrays), or may be given inline for small scenes and te
 
 Models are strict: unknown fields are rejected, numbers must be finite, and every constraint
 that can be checked without loading assets is checked here. Checks that need the assets (index
-ranges, degenerate triangles, animation shapes) are done by ``weft.scene`` and reported with the
+ranges, degenerate triangles, animation shapes) are done by ``weft.solver_setup`` and reported with the
 same field paths.
 """
 

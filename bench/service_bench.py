@@ -26,7 +26,7 @@ import httpx
 from httpx_sse import aconnect_sse
 
 from server.stack import Stack
-from weft.scene_builders import sheet_shot
+from scenes.builders import sheet_shot
 
 
 def percentiles(values: list[float]) -> dict[str, float]:

@@ -11,7 +11,9 @@ from api_schemas import Shot
 from server.errors import ApiError
 from server.uploads import normalize_asset_path
 from weft.jobstore import ServiceSettings
-from weft.scene import ShotError, ShotValidationError, asset_paths, parse_shot, resolve_scene
+from weft.assets import asset_paths
+from weft.shot import ShotError, ShotValidationError, parse_shot
+from weft.solver_setup import resolve_scene
 
 
 def check_index_sizes(shot: Shot) -> None:

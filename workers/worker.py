@@ -24,7 +24,8 @@ from api_schemas import FrameTelemetry
 from weft import jobstore
 from weft.jobstore import ServiceSettings
 from weft.runner import FrameRecord, ShotRunner, SolverFailure
-from weft.scene import ShotError, parse_shot, resolve_scene
+from weft.shot import ShotError, parse_shot
+from weft.solver_setup import resolve_scene
 
 log = logging.getLogger("weft.worker")
 

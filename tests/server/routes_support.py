@@ -7,7 +7,7 @@ from typing import Any
 import httpx
 from fastapi.testclient import TestClient
 
-from weft.scene_builders import sheet_shot
+from scenes.builders import sheet_shot
 
 ALICE, BOB = "alice-key-0123456789", "bob-key-9876543210"
 MISSING_JOB = "0" * 32

@@ -14,7 +14,7 @@ import pytest
 from httpx_sse import connect_sse
 
 from server.stack import Stack
-from weft.scene_builders import sheet_shot
+from scenes.builders import sheet_shot
 
 ALICE, BOB = "alice-key-0123456789", "bob-key-9876543210"
 FAST_CLAIM = {

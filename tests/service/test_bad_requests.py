@@ -66,7 +66,7 @@ CASES: list[Case] = [
     ("pin out of range", lambda c, s: c.post("/v1/jobs", json=shot_with("cloth.0.pins", [{"vertices": [500]}])), 422, "pins[0].vertices[0]"),
     ("reversed frame range", lambda c, s: c.post("/v1/jobs", json=shot_with("frame_range", [10, 2])), 422, "frame_range"),
     ("too many frames", lambda c, s: c.post("/v1/jobs", json=shot_with("frame_range", [1, 5000])), 422, "exceeds the limit"),
-    ("too many vertices", lambda c, s: c.post("/v1/jobs", json=__import__("weft.scene_builders", fromlist=["x"]).sheet_shot("big", 80, 80, 1, 1)), 422, "vertices exceeds the limit"),
+    ("too many vertices", lambda c, s: c.post("/v1/jobs", json=__import__("scenes.builders", fromlist=["x"]).sheet_shot("big", 80, 80, 1, 1)), 422, "vertices exceeds the limit"),
     ("oversize JSON body", lambda c, s: c.post("/v1/jobs", content=b"{" + b" " * 1_100_000 + b"}", headers={"Content-Type": "application/json"}), 413, "limit"),
     ("oversize upload", lambda c, s: c.post("/v1/jobs", **multipart(small_shot(), ("big.npy", b"\0" * 2_100_000))), 413, "limit"),
     ("mismatched animation", lambda c, s: c.post("/v1/jobs", **multipart(*[(sh, ("anim.npy", data)) for sh, data in [with_body(7)]][0])), 422, "bodies[0].animation"),

@@ -15,7 +15,7 @@ import trimesh
 import yaml
 
 from server.stack import Stack, free_port
-from weft.scene_builders import grid_sheet
+from scenes.builders import grid_sheet
 
 from .conftest import ALICE, slow_shot, small_shot, wait_for
 

@@ -14,7 +14,7 @@ import httpx
 import numpy as np
 
 from server.stack import Stack
-from weft.scene_builders import sheet_shot
+from scenes.builders import sheet_shot
 
 from .conftest import ALICE, client, follow, job_state, slow_shot, small_shot, wait_for
 

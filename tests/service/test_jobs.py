@@ -10,7 +10,7 @@ import httpx
 import numpy as np
 import trimesh
 
-from weft.scene_builders import grid_sheet
+from scenes.builders import grid_sheet
 
 from .conftest import follow, job_state, slow_shot, small_shot, wait_for
 

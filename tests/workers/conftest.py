@@ -14,8 +14,8 @@ from server.stack import RedisServer
 from server.testing import redis_db, redis_server  # noqa: F401 (fixtures)
 from weft import jobstore
 from weft.jobstore import ServiceSettings
-from weft.scene import parse_shot
-from weft.scene_builders import sheet_shot
+from weft.shot import parse_shot
+from scenes.builders import sheet_shot
 from workers.worker import Worker
 
 
