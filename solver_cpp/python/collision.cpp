@@ -105,7 +105,9 @@ void bind_collision(py::module_& m) {
       .def_readwrite("count_intersections", &CollisionSettings::count_intersections)
       .def_readwrite("contact_constraints", &CollisionSettings::contact_constraints)
       .def_readwrite("gia", &CollisionSettings::gia)
-      .def_readwrite("body_pinch", &CollisionSettings::body_pinch);
+      .def_readwrite("body_pinch", &CollisionSettings::body_pinch)
+      .def_readwrite("self_culling", &CollisionSettings::self_culling)
+      .def_readwrite("body_group", &CollisionSettings::body_group);
 
   auto setup = py::reinterpret_borrow<py::class_<SimulationSetup>>(m.attr("SimulationSetup"));
   setup.def_readwrite("collision", &SimulationSetup::collision);
@@ -122,7 +124,11 @@ void bind_collision(py::module_& m) {
                              [](const FrameTelemetry& t) { return t.collision.response_seconds; })
       .def_property_readonly("intersection_seconds",
                              [](const FrameTelemetry& t) { return t.collision.intersection_seconds; })
+      .def_property_readonly("broad_phase_pairs", [](const FrameTelemetry& t) { return t.collision.broad_phase_pairs; })
       .def_property_readonly("proximity_pairs", [](const FrameTelemetry& t) { return t.collision.proximity_pairs; })
+      .def_property_readonly("contact_constraints",
+                             [](const FrameTelemetry& t) { return t.collision.contact_constraints; })
+      .def_property_readonly("released_contacts", [](const FrameTelemetry& t) { return t.collision.released_contacts; })
       .def_property_readonly("ccd_candidates", [](const FrameTelemetry& t) { return t.collision.ccd_candidates; })
       .def_property_readonly("ccd_hits", [](const FrameTelemetry& t) { return t.collision.ccd_hits; })
       .def_property_readonly("impact_zones", [](const FrameTelemetry& t) { return t.collision.impact_zones; })

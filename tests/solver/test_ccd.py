@@ -129,3 +129,28 @@ def test_randomized_exact_truth_no_false_negatives(edge_edge):
     # The reported time is a lower bound of the earliest contact (at most t*).
     assert np.all(toi[qs.hit] <= qs.t_star[qs.hit])
     assert fp_rate < 0.1
+
+
+def test_displacement_that_overflows_is_treated_as_unknown():
+    # Finite ends whose difference overflows to infinity: nothing can be said, so a hit at the start.
+    big = np.finfo(np.float64).max / 2 * 1.5
+    hit, toi = vt([0.2, 0.2, big], [0.2, 0.2, -big])
+    assert hit and toi == 0.0
+    hit, toi = ee(EDGE_A + [0, 0, big], EDGE_A - [0, 0, big], EDGE_B, EDGE_B)
+    assert hit and toi == 0.0
+
+
+@pytest.mark.parametrize("offset", [1.0e3, 1.0e5])
+def test_tolerance_does_not_grow_with_the_distance_from_the_origin(offset):
+    # A 1 cm triangle far from the origin; a vertex crossing its plane 10 um outside the
+    # hypotenuse is a miss, one crossing inside a hit (the tolerance follows the query's extent).
+    far = np.array([offset, -offset, 0.5 * offset])
+    s = 0.01
+    tri = far + TRI * s
+    outside = np.array([0.5, 0.5, 0.0]) * s + np.array([1.0, 1.0, 0.0]) * (1e-5 / np.sqrt(2))
+    assert not vt(far + outside + [0, 0, s], far + outside - [0, 0, s], tri)[0]
+    assert vt(far + np.array([0.2, 0.2, 1.0]) * s, far + np.array([0.2, 0.2, -1.0]) * s, tri)[0]
+    # Edge-edge likewise: edges 1 cm long passing 10 um apart.
+    a = far + EDGE_A * s
+    b = far + EDGE_B * s + [0.5 * s + 1e-5, 0, 0]
+    assert not ee(a, a - [0, 0, 2 * s], b, b)[0]

@@ -124,7 +124,9 @@ def test_collision_telemetry_reaches_the_cache(tmp_path):
         t = f["telemetry"][()]
     simulated = t[t["substeps"] > 0]
     assert np.all(simulated["intersections"] == 0)
-    assert np.all(simulated["ccd_candidates"] > 0)
+    # Falling flat, far above the box: no candidate at all (a flat sheet cannot touch itself:
+    # normal-cone culling); resting on it at the end: candidates.
+    assert simulated["ccd_candidates"][0] == 0 and simulated["ccd_candidates"][-1] > 0
     parts = sum(simulated[k] for k in ("collision_broad_phase_seconds", "collision_proximity_seconds",
                                        "collision_ccd_seconds", "collision_response_seconds"))
     assert np.all(parts <= simulated["collision_seconds"] + 1e-12)

@@ -28,6 +28,8 @@ CollisionSettings checked(CollisionSettings s, int face_count, size_t body_count
   check_size(s.face_friction.size(), "face_friction");
   if (!s.body_collide.empty() && s.body_collide.size() != body_count)
     throw std::invalid_argument("collision.body_collide must have one entry per body");
+  if (!s.body_group.empty() && s.body_group.size() != body_count)
+    throw std::invalid_argument("collision.body_group must have one entry per body");
   return s;
 }
 
@@ -44,7 +46,7 @@ ContactDetection make_detection(const CollisionSettings& s, const Faces& cloth_f
   for (int f = 0; f < face_count; ++f)
     for (int c = 0; c < 3; ++c) face_margin[f] = std::max(face_margin[f], props.thickness[cloth_faces(f, c)]);
   return ContactDetection(cloth_faces, x, std::move(face_collide), std::move(face_self), std::move(face_margin),
-                          bodies, body_collide);
+                          bodies, body_collide, s.self_culling);
 }
 
 }  // namespace
@@ -93,8 +95,11 @@ CollisionSystem::CollisionSystem(const Faces& cloth_faces, const Positions& x, c
   std::vector<int> pinch_bodies;
   for (size_t b = 0; b < detection_.bodies().size(); ++b)
     if (detection_.bodies()[b].collide) pinch_bodies.push_back(static_cast<int>(b));
-  if (gia_ && settings_.body_pinch && pinch_bodies.size() >= 2)
-    pinch_ = std::make_unique<PinchDriver>(pinch_bodies, static_cast<int>(bodies.size()), vertex_count, threads_);
+  if (gia_ && settings_.body_pinch && pinch_bodies.size() >= 2) {
+    pinch_ = std::make_unique<PinchDriver>(pinch_bodies, static_cast<int>(bodies.size()), vertex_count, threads_,
+                                           settings_.body_group);
+    if (pinch_->tracker().pairs().empty()) pinch_.reset();  // one articulated character: no pair to track
+  }
   filter_ = std::make_unique<Filter>(*this);
 }
 
@@ -120,7 +125,7 @@ void CollisionSystem::constrain_contacts(const Positions& x, const Positions& v,
 }
 
 void CollisionSystem::redetect(std::vector<int>& hits) {
-  detection_.collect(step_, *filter_, frame_);
+  detection_.collect(step_, *filter_, frame_, true);
   ccd_.pass(step_, props_, false, &hits, true, frame_);
 }
 
@@ -149,12 +154,13 @@ void CollisionSystem::respond(const Positions& x, Positions& v, double h, const 
     gia_bodies_->clear();
     untangle_.clear();
   }
-  detection_.collect(step_, *filter_, frame_);
+  detection_.collect(step_, *filter_, frame_, false);
   ProximityResponse().apply(step_, props_, frame_);
+  step_.pairs.clear();
   if (settings_.ccd) {
     int& iteration = step_.ccd_iteration;
     for (iteration = 0; iteration < settings_.ccd_iterations; ++iteration) {
-      detection_.collect(step_, *filter_, frame_);
+      detection_.collect(step_, *filter_, frame_, true);
       ++frame_.iterations;
       if (ccd_.pass(step_, props_, true, nullptr, iteration > 0, frame_) == 0) break;
     }
@@ -166,8 +172,10 @@ void CollisionSystem::respond(const Positions& x, Positions& v, double h, const 
                               [this](std::vector<int>& found) { redetect(found); }, frame_);
     }
   }
-  const bool ccd_skipped =
-      !settings_.ccd || std::any_of(step_.pairs.begin(), step_.pairs.end(), [](const FeaturePair& p) { return !p.ccd; });
+  auto skips_ccd = [](const std::vector<FeaturePair>& list) {
+    return std::any_of(list.begin(), list.end(), [](const FeaturePair& p) { return !p.ccd; });
+  };
+  const bool ccd_skipped = !settings_.ccd || skips_ccd(step_.proximity_pairs) || skips_ccd(step_.pairs);
   gia_due_ = tangled || ccd_skipped || frame_.unresolved > unresolved_before || (pinch_ && pinch_->active_pairs() > 0);
   step_.end();
 }

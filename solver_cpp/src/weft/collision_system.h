@@ -48,6 +48,10 @@ class CollisionSystem {
   // (collision/contact_constraints.h); friction for them is applied in respond().
   void constrain_contacts(const Positions& x, const Positions& v, double h, const std::vector<KinematicBody>& bodies,
                           double alpha0, double alpha1, ConstraintFilter& filter);
+  // After the solve: whether it had contact constraints, and their impulses from the solved
+  // system's residual b - A dv (a contact that pulled is released for the next step).
+  bool has_contact_constraints() const { return !constraints_.empty(); }
+  void contact_impulses(const VectorX& residual) { frame_.released_contacts += constraints_.impulses(residual); }
 
   // Exact count of intersecting triangle pairs (cloth/body for collidable bodies at the end of
   // the frame, cloth/cloth among self-colliding faces).

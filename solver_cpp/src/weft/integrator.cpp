@@ -135,6 +135,10 @@ Simulation::StepTimings Simulation::step(double time, double h, double alpha_end
 
   const Timer solve_timer;
   const PcgStats stats = linear_->solve(filter_, dv_);
+  if (collisions_ && collisions_->has_contact_constraints()) {
+    linear_->residual(dv_, residual_);
+    collisions_->contact_impulses(residual_);
+  }
   flat(v_) += dv_;
   if (collisions_) {  // collision stage: makes x + h v collision-free
     const Timer collision_timer;

@@ -118,8 +118,9 @@ class Simulation {
   PinSet pins_;
   Positions x_, v_;
   VectorX dv_;  // last velocity change, warm start for the next solve
+  VectorX residual_;  // b - A dv after a solve with contact constraints
   ConstraintFilter filter_;
-  // Collision stage (collision_response.h): null when the scene has collisions switched off.
+  // Collision stage (collision_system.h): null when the scene has collisions switched off.
   std::unique_ptr<CollisionSystem> collisions_;
   double step_alpha_start_ = 0.0;  // frame fraction at the start of the current substep
 };

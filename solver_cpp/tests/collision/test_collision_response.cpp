@@ -28,6 +28,7 @@ struct VertexOverTriangle {
   void begin(double h) {
     step.begin(x, v, h);
     step.pairs = {FeaturePair{{0, 1, 2, 3}, -1, false}};
+    step.proximity_pairs = step.pairs;
   }
 };
 

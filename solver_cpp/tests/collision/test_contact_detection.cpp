@@ -46,21 +46,31 @@ TEST(ContactDetection, OneTrianglePairExpandsIntoEachFeaturePairOnce) {
   EXPECT_TRUE(pairs.empty());
 }
 
-TEST(ContactDetection, CollectFindsTheCloseTrianglePairOnce) {
+TEST(ContactDetection, EachListLooksAsFarAsItsTestNeeds) {
   const TwoTriangles t;
   ContactDetection detection = t.detection();
   Positions v = Positions::Zero(6, 3);
   CollisionStep step;
   step.begin(t.x, v, 0.01);
   CollisionTelemetry frame;
-  detection.collect(step, ContactFilter(), frame);
+  // 1 mm apart, thickness 2 mm: a proximity pair, expanded once.
+  detection.collect(step, ContactFilter(), frame, false);
+  EXPECT_EQ(step.proximity_pairs.size(), 15u);
+  // At rest, 1 mm apart, CCD looks only within its minimum separation (0.1 mm): no candidate.
+  detection.collect(step, ContactFilter(), frame, true);
+  EXPECT_TRUE(step.pairs.empty());
+  // Moving through each other over the step: CCD candidates.
+  v.bottomRows(3).col(2).setConstant(-0.2);
+  step.begin(t.x, v, 0.01);
+  detection.collect(step, ContactFilter(), frame, true);
   EXPECT_EQ(step.pairs.size(), 15u);
+  EXPECT_EQ(frame.broad_phase_pairs, 30);
   // Far apart: nothing.
   Positions far = t.x;
   far.col(2).tail(3).setConstant(1.0);
   step.begin(far, v, 0.01);
-  detection.collect(step, ContactFilter(), frame);
-  EXPECT_TRUE(step.pairs.empty());
+  detection.collect(step, ContactFilter(), frame, false);
+  EXPECT_TRUE(step.proximity_pairs.empty());
 }
 
 TEST(ContactDetection, SharedVerticesAndEdgesAreNotPaired) {

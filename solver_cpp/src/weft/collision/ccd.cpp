@@ -66,12 +66,25 @@ CcdResult run_ccd(const std::array<Vec3, 4>& start, const std::array<Vec3, 4>& e
     }
   }
   std::array<Vec3, 4> d;
-  for (int i = 0; i < 4; ++i) d[i] = end[i] - start[i];
+  for (int i = 0; i < 4; ++i) {
+    d[i] = end[i] - start[i];
+    if (!d[i].allFinite()) {  // finite ends whose difference overflows: as for non-finite input
+      result.hit = true;
+      result.toi = 0.0;
+      return result;
+    }
+  }
   const Vec3 err = ccd_error_bound(start, end);
-  double scale = 1e-300;
-  for (int i = 0; i < 4; ++i) scale = std::max({scale, start[i].cwiseAbs().maxCoeff(), end[i].cwiseAbs().maxCoeff()});
+  // The tolerance is relative to the query's own extent (the box around its 8 points), not to
+  // its distance from the origin: far from the origin only the rounding bound grows.
+  Vec3 lo = start[0], hi = start[0];
+  for (int i = 0; i < 4; ++i) {
+    lo = lo.cwiseMin(start[i]).cwiseMin(end[i]);
+    hi = hi.cwiseMax(start[i]).cwiseMax(end[i]);
+  }
+  const double extent = std::max((hi - lo).maxCoeff(), 1e-300);
   const double tolerance =
-      std::max({options.relative_tolerance * scale, options.absolute_tolerance, 4.0 * err.maxCoeff()});
+      std::max({options.relative_tolerance * extent, options.absolute_tolerance, 4.0 * err.maxCoeff()});
   const Vec3 widen = err + Vec3::Constant(std::max(options.minimum_separation, 0.0));
   const double t_max = std::clamp(options.t_max, 0.0, 1.0);
 

@@ -24,8 +24,9 @@ struct CcdOptions {
   // the gap vector, which is at most the Euclidean distance), metres.
   double minimum_separation = 0.0;
   // A box whose co-domain is narrower than this in every coordinate is accepted as a hit.
-  // Relative to the query's coordinate scale (largest |coordinate| among the 8 input points,
-  // at least 1e-300); the absolute tolerance is never below four times the error bound.
+  // Relative to the query's extent (largest side of the box around the 8 input points, at
+  // least 1e-300), so it does not grow with the distance from the origin; the absolute
+  // tolerance is never below four times the floating-point error bound.
   double relative_tolerance = 1e-6;
   // Absolute floor of the same tolerance, metres (e.g. a fraction of the minimum separation).
   double absolute_tolerance = 0.0;

@@ -16,11 +16,14 @@ int CcdResponse::pass(CollisionStep& step, const ContactProperties& props, bool 
   dirty.swap(step.changed);
   std::vector<char> hit(count, 0);
   std::vector<double> toi(count, 1.0);
+  auto examined = [&](int k) {
+    const FeaturePair& pair = step.pairs[k];
+    return pair.ccd && (!incremental || std::any_of(pair.point.begin(), pair.point.end(),
+                                                     [&](int p) { return p >= 0 && dirty[p]; }));
+  };
   auto run = [&](int k) {
     const FeaturePair& pair = step.pairs[k];
-    if (!pair.ccd) return CcdResult{};
-    if (incremental && !std::any_of(pair.point.begin(), pair.point.end(), [&](int p) { return p >= 0 && dirty[p]; }))
-      return CcdResult{};
+    if (!examined(k)) return CcdResult{};
     std::array<Vec3, 4> s, e;
     for (int i = 0; i < 4; ++i) {
       s[i] = step.start_of(pair.point[i], pair.body);
@@ -40,13 +43,15 @@ int CcdResponse::pass(CollisionStep& step, const ContactProperties& props, bool 
     if (!boxes_within(s, e, pair.edge_edge, options.minimum_separation)) return CcdResult{};
     return pair.edge_edge ? edge_edge_ccd(s, e, options) : vertex_triangle_ccd(s, e, options);
   };
-#pragma omp parallel for schedule(dynamic, 64) num_threads(threads_)
+  int candidates = 0;
+#pragma omp parallel for schedule(dynamic, 64) num_threads(threads_) reduction(+ : candidates)
   for (int k = 0; k < count; ++k) {
+    candidates += examined(k) ? 1 : 0;
     const CcdResult r = run(k);
     hit[k] = r.hit;
     toi[k] = r.toi;
   }
-  frame.ccd_candidates += count;
+  frame.ccd_candidates += candidates;
   incremental = false;  // the serial pass re-tests hits with the velocities of the moment
   frame.ccd_seconds += timer.seconds();
   timer.restart();

@@ -9,9 +9,8 @@
 
 namespace weft {
 
-// CCD reports pairs that come closer than this fraction of the thickness ...
-constexpr double kCcdSeparationFraction = 0.05;
-// ... and its impulses aim for this separation at the end of the step.
+// CCD reports pairs that come closer than kCcdSeparationFraction of the thickness
+// (collision_step.h), and its impulses aim for this separation at the end of the step.
 constexpr double kTargetSeparationFraction = 0.1;
 
 class CcdResponse {

@@ -14,6 +14,9 @@ namespace weft {
 
 constexpr double kDefaultThickness = 0.002;
 constexpr double kDefaultFriction = 0.3;
+// CCD reports pairs that come closer than this fraction of the thickness (its broad phase
+// looks no farther).
+constexpr double kCcdSeparationFraction = 0.05;
 
 struct ContactProperties {
   std::vector<double> inverse_mass;         // per cloth vertex, 0 for pinned vertices
@@ -35,7 +38,8 @@ struct CollisionStep {
   Positions x_end;
   double h = 0.0;
   std::vector<Positions> body_start, body_end;  // per body (empty for bodies that do not collide)
-  std::vector<FeaturePair> pairs;               // from ContactDetection::collect
+  std::vector<FeaturePair> pairs;            // CCD candidates of the current pass (ContactDetection::collect)
+  std::vector<FeaturePair> proximity_pairs;  // proximity candidates of the step (likewise)
   std::vector<char> changed;  // cloth vertices whose velocity changed since the last CCD pass
   int ccd_iteration = 0;      // CCD impulse pass within the step
 

@@ -6,6 +6,9 @@ namespace weft {
 
 void CollisionTelemetry::add(const CollisionTelemetry& o) {
   broad_phase_seconds += o.broad_phase_seconds;
+  broad_phase_pairs += o.broad_phase_pairs;
+  contact_constraints += o.contact_constraints;
+  released_contacts += o.released_contacts;
   proximity_seconds += o.proximity_seconds;
   ccd_seconds += o.ccd_seconds;
   response_seconds += o.response_seconds;

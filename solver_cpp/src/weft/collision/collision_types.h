@@ -14,15 +14,17 @@ struct CollisionSettings {
   std::vector<char> face_collide;       // per cloth face: collides with bodies (empty: all)
   std::vector<char> face_self_collide;  // per cloth face: cloth/cloth (empty: none)
   std::vector<char> body_collide;       // per body (empty: all)
+  // Per body: the articulated character it is a part of (-1 or empty: its own). Parts of one
+  // character may overlap at joints; they are never a body/body pinch (body_pinch.h).
+  std::vector<int> body_group;
   VectorX face_thickness;               // per cloth face, m (empty: 0.002)
   VectorX face_friction;                // per cloth face (empty: 0.3)
   int ccd_iterations = 8;               // impulse passes before impact zones
   int zone_iterations = 100;            // impact-zone passes (each grows or merges zones)
   bool count_intersections = true;      // exact intersection count at every frame end
-  // Cloth/body contacts also as prescribed normal velocities in the filtered solve. Off by
-  // default: the simple release rule (a vertex leaving faster than its push-out is not
-  // constrained) made resting contact jitter in the box drop (docs/collisions.md).
-  bool contact_constraints = false;
+  // Cloth/body contacts as constraints of the filtered solve (contact_constraints.h), released
+  // by the sign of their impulse. Off only to compare (tests, benchmarks).
+  bool contact_constraints = true;
   // Global intersection analysis (docs/intersection-analysis.md): against closed bodies and,
   // with self-collision, cloth/cloth untangling (cloth_untangling.h). 0 off, 1 on, -1 on when
   // some cloth vertex starts inside a closed collidable body or the self-colliding cloth
@@ -31,6 +33,9 @@ struct CollisionSettings {
   // Body/body pinch states (body_pinch.h) when GIA is on and two or more bodies collide: CCD off
   // for cloth where two bodies intersect each other. Off only to compare (tests, diagnosis).
   bool body_pinch = true;
+  // Normal-cone culling of self-collision pairs inside patches that cannot touch themselves
+  // (self_culling.h). Off only to compare (tests, benchmarks).
+  bool self_culling = true;
 };
 
 struct CollisionTelemetry {
@@ -39,8 +44,11 @@ struct CollisionTelemetry {
   double ccd_seconds = 0.0;
   double response_seconds = 0.0;
   double intersection_seconds = 0.0;  // counting at frame end
+  int broad_phase_pairs = 0;  // feature pairs the broad phase produced (proximity and CCD lists)
   int proximity_pairs = 0;
-  int ccd_candidates = 0;  // feature pairs given to CCD
+  int contact_constraints = 0;  // cloth/body contacts constrained in the solve, summed over substeps
+  int released_contacts = 0;    // of those, released after the solve (the cloth pulled away)
+  int ccd_candidates = 0;  // feature pairs a CCD pass examined (incremental passes: those with a moved vertex)
   int ccd_hits = 0;
   int impact_zones = 0;
   int iterations = 0;  // CCD impulse passes plus impact-zone passes

@@ -9,13 +9,21 @@
 
 namespace weft {
 
+namespace {
+// Contacts are looked for within this many thicknesses: beyond one thickness the constraint only
+// caps the approach speed, so a vertex arriving fast ends the step at the thickness instead of
+// being caught by CCD.
+constexpr double kContactBand = 2.0;
+}  // namespace
+
 void ContactConstraints::constrain(const Positions& x, const Positions& v, double h, const CollisionStep& step,
                                    ContactDetection& detection, const ContactProperties& props,
                                    ConstraintFilter& filter, CollisionTelemetry& frame) {
   const Timer timer;
   const int vertex_count = static_cast<int>(x.rows());
-  detection.refit_cloth(x, x);
-  // Closest collidable body face within the thickness, per cloth vertex.
+  if (released_.size() != static_cast<size_t>(vertex_count)) released_.assign(vertex_count, 0);
+  detection.refit_cloth(x, x, kContactBand);
+  // Closest collidable body face within the band, per cloth vertex.
   std::vector<double> best(vertex_count, std::numeric_limits<double>::infinity());
   std::vector<Contact> contact(vertex_count);
   for (size_t b = 0; b < detection.bodies().size(); ++b) {
@@ -32,7 +40,8 @@ void ContactConstraints::constrain(const Positions& x, const Positions& v, doubl
         Vec3 bary;
         const Vec3 p = row3(x, vtx);
         const double d = point_triangle_distance(p, a, bb, c, bary);
-        if (d >= props.thickness[vtx] || d >= best[vtx] || d <= 1e-12 * props.thickness[vtx]) continue;
+        const double th = props.thickness[vtx];
+        if (d >= kContactBand * th || d >= best[vtx] || d <= 1e-12 * th) continue;
         best[vtx] = d;
         Vec3 vb = Vec3::Zero();
         for (int k = 0; k < 3; ++k) {
@@ -44,28 +53,45 @@ void ContactConstraints::constrain(const Positions& x, const Positions& v, doubl
     }
   }
   for (int i = 0; i < vertex_count; ++i) {
-    if (!std::isfinite(best[i]) || filter.projection[i] != Mat3::Identity()) continue;
+    const bool released = released_[i] != 0;
+    released_[i] = 0;
+    if (released || !std::isfinite(best[i]) || filter.projection[i] != Mat3::Identity()) continue;
     Contact c = contact[i];
-    const double target = kRepulsionRate * (props.thickness[i] - best[i]) / h;
+    const double th = props.thickness[i];
+    const double target = best[i] < th ? kRepulsionRate * (th - best[i]) / h : (th - best[i]) / h;
     const double vn = (row3(v, i) - c.body_velocity).dot(c.normal);
-    if (vn > target) continue;  // leaving: no constraint
+    if (vn > target) continue;  // leaving, or approaching slowly enough: no constraint
     c.delta_vn = target - vn;
     filter.constrain_direction(i, c.normal, c.delta_vn);
     contacts_.push_back(c);
   }
-  frame.proximity_pairs += static_cast<int>(contacts_.size());
+  frame.contact_constraints += static_cast<int>(contacts_.size());
   frame.proximity_seconds += timer.seconds();
+}
+
+int ContactConstraints::impulses(const VectorX& residual) {
+  int pulled = 0;
+  for (Contact& c : contacts_) {
+    const double impulse = c.normal.dot(residual.segment<3>(3 * c.vertex));
+    if (impulse < 0.0) {
+      released_[c.vertex] = 1;
+      ++pulled;
+    }
+    c.impulse = std::max(impulse, 0.0);
+  }
+  return pulled;
 }
 
 void ContactConstraints::friction(CollisionStep& step, const ContactProperties& props) const {
   for (const Contact& c : contacts_) {
     const double mu = props.friction[c.vertex];
-    if (mu <= 0.0) continue;
+    if (mu <= 0.0 || c.impulse <= 0.0) continue;
     const Vec3 v_rel = row3(*step.v, c.vertex) - c.body_velocity;
     const Vec3 v_t = v_rel - c.normal.dot(v_rel) * c.normal;
     const double vt_norm = v_t.norm();
     if (vt_norm <= 0.0) continue;
-    const double scale = std::max(0.0, 1.0 - mu * c.delta_vn / vt_norm);
+    // Coulomb: the tangential velocity change is at most mu times the normal one.
+    const double scale = std::max(0.0, 1.0 - mu * c.impulse * props.inverse_mass[c.vertex] / vt_norm);
     step.v->row(c.vertex) += ((scale - 1.0) * v_t).transpose();
     step.moved(c.vertex);
   }

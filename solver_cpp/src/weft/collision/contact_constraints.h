@@ -1,9 +1,15 @@
-// Cloth/body contacts as constraints of the filtered solve (CollisionSettings::
-// contact_constraints): before the solve, every free cloth vertex within the thickness of a
-// collidable body face and not moving away from it gets its normal velocity relative to the
-// body prescribed (to a small push back out), a constraint of the pre-filtered solve (pcg.h).
-// Friction for these contacts is applied after the solve, with the constraint's velocity
-// change as the normal impulse.
+// Cloth/body contacts as constraints of the filtered solve (Baraff & Witkin 1998; the
+// pre-filtered PCG of Tamstorf et al. 2015, pcg.h), so the solve itself returns velocities that
+// respect resting contact and CCD is only the last guard.
+//
+// Before the solve, every free cloth vertex within two thicknesses of a collidable body face
+// whose normal velocity relative to the face is below a target gets that normal velocity
+// prescribed: at or inside the thickness a push back out of kRepulsionRate of the missing
+// separation per step, beyond it the speed that ends the step at the thickness. After the solve
+// the residual gives each constraint's normal impulse; a constraint that pulled the cloth
+// towards the body (negative impulse: the cloth wants to leave) is released for the next step,
+// so cloth lifts off freely instead of alternating between held and free. Coulomb friction
+// uses that impulse as the normal impulse.
 #pragma once
 
 #include <vector>
@@ -20,9 +26,13 @@ class ContactConstraints {
   void constrain(const Positions& x, const Positions& v, double h, const CollisionStep& step,
                  ContactDetection& detection, const ContactProperties& props, ConstraintFilter& filter,
                  CollisionTelemetry& frame);
+  // After the solve, residual = b - A dv of the solved system: each contact's normal impulse;
+  // contacts that pulled are released for the next step. Returns how many pulled.
+  int impulses(const VectorX& residual);
   // After the solve: Coulomb friction of this step's contacts on step.v.
   void friction(CollisionStep& step, const ContactProperties& props) const;
   void clear() { contacts_.clear(); }
+  bool empty() const { return contacts_.empty(); }
 
  private:
   struct Contact {
@@ -30,9 +40,11 @@ class ContactConstraints {
     int body;
     Vec3 normal;
     Vec3 body_velocity;
-    double delta_vn;  // normal velocity change the constraint prescribed
+    double delta_vn;      // normal velocity change the constraint prescribed
+    double impulse = 0.0;  // normal impulse the constraint applied (after the solve), >= 0
   };
   std::vector<Contact> contacts_;
+  std::vector<char> released_;  // per cloth vertex: its constraint pulled last step, free this step
 };
 
 }  // namespace weft

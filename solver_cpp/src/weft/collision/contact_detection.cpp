@@ -1,6 +1,7 @@
 #include "weft/collision/contact_detection.h"
 
 #include <algorithm>
+#include <limits>
 
 #include "weft/common/timer.h"
 
@@ -8,17 +9,55 @@ namespace weft {
 
 namespace {
 bool face_has(const Faces& faces, int f, int v) { return faces(f, 0) == v || faces(f, 1) == v || faces(f, 2) == v; }
+
+using Triangle = std::array<Vec3, 3>;
+
+Triangle corners(const Faces& faces, int f, const Positions& x) {
+  return {row3(x, faces(f, 0)), row3(x, faces(f, 1)), row3(x, faces(f, 2))};
+}
+
+// Whether the start plane of triangle A has every start and end corner of B strictly on one
+// side, farther than gap plus the largest corner displacement of A. Every point of a linearly
+// moving triangle stays within its largest corner displacement of its start position, and B's
+// points over the step are convex combinations of its corners, so then A and B stay more than
+// gap apart for the whole step.
+bool plane_separates(const Triangle& as, const Triangle& ae, const Triangle& bs, const Triangle& be, double gap) {
+  Vec3 n = (as[1] - as[0]).cross(as[2] - as[0]);
+  const double norm = n.norm();
+  if (!(norm > 0.0)) return false;
+  n /= norm;
+  double motion = 0.0;
+  for (int k = 0; k < 3; ++k) motion = std::max(motion, (ae[k] - as[k]).norm());
+  const double limit = gap + motion;
+  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+  for (int k = 0; k < 3; ++k)
+    for (const Vec3* p : {&bs[k], &be[k]}) {
+      const double d = n.dot(*p - as[0]);
+      lo = std::min(lo, d);
+      hi = std::max(hi, d);
+    }
+  return lo > limit || hi < -limit;
+}
+
+// Triangle pairs that cannot come within gap of each other over the step (either plane
+// separates them): cheaper to drop than to expand into up to 15 feature pairs.
+bool triangles_apart(const Triangle& as, const Triangle& ae, const Triangle& bs, const Triangle& be, double gap) {
+  return plane_separates(as, ae, bs, be, gap) || plane_separates(bs, be, as, ae, gap);
+}
 }  // namespace
 
 ContactDetection::ContactDetection(const Faces& cloth_faces, const Positions& x, std::vector<char> face_collide,
                                    std::vector<char> face_self, std::vector<double> face_margin,
-                                   const std::vector<KinematicBody>& bodies, const std::vector<char>& body_collide)
+                                   const std::vector<KinematicBody>& bodies, const std::vector<char>& body_collide,
+                                   bool self_culling)
     : cloth_faces_(cloth_faces), face_collide_(std::move(face_collide)), face_self_(std::move(face_self)),
-      face_margin_(std::move(face_margin)) {
+      face_margin_(std::move(face_margin)), self_culling_(self_culling) {
   any_self_ = std::any_of(face_self_.begin(), face_self_.end(), [](char c) { return c != 0; });
+  for (double m : face_margin_) largest_margin_ = std::max(largest_margin_, m);
   cloth_own_ = assign_features(cloth_faces_, static_cast<int>(x.rows()));
   triangle_boxes(cloth_faces_, x, x, face_margin_, cloth_boxes_);
   cloth_tree_.build(cloth_boxes_);
+  if (any_self_ && self_culling_) culling_.rebuild(cloth_tree_, cloth_faces_, face_self_);
   bodies_.resize(bodies.size());
   for (size_t b = 0; b < bodies.size(); ++b) {
     Body& state = bodies_[b];
@@ -33,8 +72,14 @@ ContactDetection::ContactDetection(const Faces& cloth_faces, const Positions& x,
   }
 }
 
-void ContactDetection::refit_cloth(const Positions& start, const Positions& end) {
-  triangle_boxes(cloth_faces_, start, end, face_margin_, cloth_boxes_);
+void ContactDetection::refit_cloth(const Positions& start, const Positions& end, double fraction) {
+  if (fraction == 1.0) {
+    triangle_boxes(cloth_faces_, start, end, face_margin_, cloth_boxes_);
+  } else {
+    scaled_margin_.resize(face_margin_.size());
+    for (size_t f = 0; f < face_margin_.size(); ++f) scaled_margin_[f] = fraction * face_margin_[f];
+    triangle_boxes(cloth_faces_, start, end, scaled_margin_, cloth_boxes_);
+  }
   cloth_tree_.refit(cloth_boxes_);
 }
 
@@ -94,28 +139,51 @@ void ContactDetection::expand_triangle_pair(int cf, int of, int body, const Cont
       for (const auto& e2 : b.own.face_edges[of]) out.push_back({{e1[0], e1[1], bv(e2[0]), bv(e2[1])}, body, true});
 }
 
-void ContactDetection::collect(CollisionStep& step, const ContactFilter& filter, CollisionTelemetry& frame) {
+void ContactDetection::collect(CollisionStep& step, const ContactFilter& filter, CollisionTelemetry& frame,
+                               bool swept) {
   const Timer timer;
-  refit_cloth(*step.x, step.x_end);
-  std::vector<FeaturePair>& pairs = step.pairs;
+  const Positions& x = *step.x;
+  const Positions& end = swept ? step.x_end : x;
+  const double fraction = swept ? kCcdSeparationFraction : 1.0;
+  refit_cloth(x, end, fraction);
+  std::vector<FeaturePair>& pairs = swept ? step.pairs : step.proximity_pairs;
   pairs.clear();
   if (any_self_) {
     scratch_pairs_.clear();
-    cloth_tree_.self_pairs(scratch_pairs_);
-    for (const auto& [a, b] : scratch_pairs_)
-      if (face_self_[a] && face_self_[b]) expand_triangle_pair(a, b, -1, filter, pairs);
+    const std::vector<char>* culled = nullptr;
+    if (self_culling_) {
+      culling_.update(cloth_tree_, cloth_faces_, x, end, fraction * largest_margin_);
+      culled = &culling_.culled();
+    }
+    cloth_tree_.self_pairs(scratch_pairs_, culled);
+    for (const auto& [a, b] : scratch_pairs_) {
+      if (!face_self_[a] || !face_self_[b]) continue;
+      const double gap = fraction * std::max(face_margin_[a], face_margin_[b]);
+      if (triangles_apart(corners(cloth_faces_, a, x), corners(cloth_faces_, a, end), corners(cloth_faces_, b, x),
+                          corners(cloth_faces_, b, end), gap))
+        continue;
+      expand_triangle_pair(a, b, -1, filter, pairs);
+    }
   }
   for (size_t b = 0; b < bodies_.size(); ++b) {
     if (!bodies_[b].collide) continue;
     const int body = static_cast<int>(b);
-    for (const auto& [cf, bf] : body_pairs(body, step.body_start[b], step.body_end[b])) {
+    const Positions& body_start = step.body_start[b];
+    const Positions& body_end = swept ? step.body_end[b] : body_start;
+    const Faces& body_faces = bodies_[b].faces;
+    for (const auto& [cf, bf] : body_pairs(body, body_start, body_end)) {
       if (!face_collide_[cf]) continue;
+      if (triangles_apart(corners(cloth_faces_, cf, x), corners(cloth_faces_, cf, end),
+                          corners(body_faces, bf, body_start), corners(body_faces, bf, body_end),
+                          fraction * face_margin_[cf]))
+        continue;
       const size_t first = pairs.size();
       expand_triangle_pair(cf, bf, body, filter, pairs);
       if (filter.pinched_face(cf, body))  // cloth in a body/body pinch: proximity only, no CCD
         for (size_t k = first; k < pairs.size(); ++k) pairs[k].ccd = false;
     }
   }
+  frame.broad_phase_pairs += static_cast<int>(pairs.size());
   frame.broad_phase_seconds += timer.seconds();
 }
 

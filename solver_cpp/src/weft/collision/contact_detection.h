@@ -1,9 +1,12 @@
 // Contact detection, the first part of the collision stage (collision_system.h): refit the AABB
-// trees (cloth boxes swept over the step and widened by the thickness, body boxes swept or at
-// the step's start), collect the overlapping triangle pairs cloth/body and cloth/cloth, and
-// expand each into vertex-triangle and edge-edge feature pairs, each pair once
-// (representative-triangle ownership, closest_points.h). The GIA membranes and pinch regions
-// skip pairs through a ContactFilter.
+// trees, collect the overlapping triangle pairs cloth/body and cloth/cloth, and expand each
+// into vertex-triangle and edge-edge feature pairs, each pair once (representative-triangle
+// ownership, closest_points.h). Two lists, each with boxes no larger than its test needs:
+// proximity pairs at the step's start within one thickness, CCD pairs over the step (boxes
+// swept from x to x_end) within CCD's minimum separation. Tree nodes whose cloth cannot touch
+// itself are culled (self_culling.h), and triangle pairs that a triangle's plane keeps apart
+// over the step are dropped before expansion. The GIA membranes and pinch regions skip pairs
+// through a ContactFilter.
 #pragma once
 
 #include <utility>
@@ -12,6 +15,7 @@
 #include "weft/bodies/bodies.h"
 #include "weft/collision/collision_step.h"
 #include "weft/collision/contact_filter.h"
+#include "weft/collision/self_culling.h"
 #include "weft/geometry/aabb_tree.h"
 #include "weft/geometry/closest_points.h"
 
@@ -33,15 +37,19 @@ class ContactDetection {
   // the bodies' frame start.
   ContactDetection(const Faces& cloth_faces, const Positions& x, std::vector<char> face_collide,
                    std::vector<char> face_self, std::vector<double> face_margin,
-                   const std::vector<KinematicBody>& bodies, const std::vector<char>& body_collide);
+                   const std::vector<KinematicBody>& bodies, const std::vector<char>& body_collide,
+                   bool self_culling = true);
 
-  // Cloth boxes over start..end (the same object: static boxes).
-  void refit_cloth(const Positions& start, const Positions& end);
+  // Cloth boxes over start..end (the same object: static boxes), widened by `fraction` of each
+  // face's margin.
+  void refit_cloth(const Positions& start, const Positions& end, double fraction = 1.0);
   // Refit body `body`'s tree over start..end (the same object: static) and return its
   // overlapping (cloth face, body face) pairs against the cloth tree as last refitted.
   const std::vector<std::pair<int, int>>& body_pairs(int body, const Positions& start, const Positions& end);
-  // Broad phase over step.x and step.x_end into step.pairs; cloth in a pinch region gets no CCD.
-  void collect(CollisionStep& step, const ContactFilter& filter, CollisionTelemetry& frame);
+  // Broad phase. swept: over the step from step.x to step.x_end within the CCD minimum
+  // separation, into step.pairs; else at step.x within one thickness, into
+  // step.proximity_pairs. Cloth in a pinch region gets no CCD.
+  void collect(CollisionStep& step, const ContactFilter& filter, CollisionTelemetry& frame, bool swept);
   // Feature pairs of cloth face `cloth_face` against `other_face`, a cloth face (body < 0) or a
   // face of body `body`, appended to out.
   void expand_triangle_pair(int cloth_face, int other_face, int body, const ContactFilter& filter,
@@ -59,8 +67,11 @@ class ContactDetection {
  private:
   Faces cloth_faces_;
   std::vector<char> face_collide_, face_self_;
-  std::vector<double> face_margin_;
+  std::vector<double> face_margin_, scaled_margin_;
+  double largest_margin_ = 0.0;
   bool any_self_ = false, any_body_ = false;
+  bool self_culling_ = true;
+  SelfCollisionCulling culling_;  // with self-collision and self_culling_
   FeatureOwnership cloth_own_;
   AabbTree cloth_tree_;
   std::vector<Aabb> cloth_boxes_;

@@ -8,7 +8,7 @@ namespace weft {
 int ProximityResponse::apply(CollisionStep& step, const ContactProperties& props, CollisionTelemetry& frame) const {
   const Timer timer;
   int count = 0;
-  for (const FeaturePair& pair : step.pairs) {
+  for (const FeaturePair& pair : step.proximity_pairs) {
     const double th = props.pair_thickness(pair);
     std::array<Vec3, 4> s;
     for (int i = 0; i < 4; ++i) s[i] = step.start_of(pair.point[i], pair.body);

@@ -69,15 +69,15 @@ void AabbTree::refit(const std::vector<Aabb>& leaves) {
   }
 }
 
-void AabbTree::self_pairs(std::vector<std::pair<int, int>>& out) const {
-  if (!nodes_.empty()) self_node(0, out);
+void AabbTree::self_pairs(std::vector<std::pair<int, int>>& out, const std::vector<char>* culled) const {
+  if (!nodes_.empty()) self_node(0, out, culled);
 }
 
-void AabbTree::self_node(int n, std::vector<std::pair<int, int>>& out) const {
+void AabbTree::self_node(int n, std::vector<std::pair<int, int>>& out, const std::vector<char>* culled) const {
   const Node& node = nodes_[n];
-  if (node.leaf >= 0) return;
-  self_node(node.left, out);
-  self_node(node.right, out);
+  if (node.leaf >= 0 || (culled && (*culled)[n])) return;
+  self_node(node.left, out, culled);
+  self_node(node.right, out, culled);
   cross(node.left, *this, node.right, true, out);
 }
 

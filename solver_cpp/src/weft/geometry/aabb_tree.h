@@ -45,8 +45,16 @@ class AabbTree {
   void refit(const std::vector<Aabb>& leaves);
   bool empty() const { return nodes_.empty(); }
 
-  // Every pair (i, j), i < j, of leaves whose boxes overlap.
-  void self_pairs(std::vector<std::pair<int, int>>& out) const;
+  // The hierarchy (node 0 is the root), for per-node data kept outside the tree.
+  int node_count() const { return static_cast<int>(nodes_.size()); }
+  int left(int n) const { return nodes_[n].left; }
+  int right(int n) const { return nodes_[n].right; }
+  int leaf(int n) const { return nodes_[n].leaf; }  // -1 for inner nodes
+  const std::vector<int>& post_order() const { return post_order_; }
+
+  // Every pair (i, j), i < j, of leaves whose boxes overlap, except pairs inside a node n with
+  // (*culled)[n] != 0 when culled is given (self-collision culling, collision/self_culling.h).
+  void self_pairs(std::vector<std::pair<int, int>>& out, const std::vector<char>* culled = nullptr) const;
   // Every pair (i of this tree, j of other) whose boxes overlap.
   void pairs(const AabbTree& other, std::vector<std::pair<int, int>>& out) const;
   // Box of all leaves (the tree must not be empty).
@@ -77,7 +85,7 @@ class AabbTree {
     int leaf = -1;              // leaf index for leaves
   };
   int build_range(std::vector<int>& order, std::vector<Vec3>& centre, int begin, int end);
-  void self_node(int n, std::vector<std::pair<int, int>>& out) const;
+  void self_node(int n, std::vector<std::pair<int, int>>& out, const std::vector<char>* culled) const;
   void cross(int a, const AabbTree& tb, int b, bool same, std::vector<std::pair<int, int>>& out) const;
 
   std::vector<Node> nodes_;

@@ -41,11 +41,13 @@ BodyIntersection body_intersection(const Positions& xa, const Faces& fa, const P
   return r;
 }
 
-BodyPinchTracker::BodyPinchTracker(std::vector<int> bodies, int threads)
+BodyPinchTracker::BodyPinchTracker(std::vector<int> bodies, int threads, const std::vector<int>& group)
     : bodies_(std::move(bodies)), threads_(threads) {
   std::sort(bodies_.begin(), bodies_.end());
+  auto group_of = [&](int b) { return b < static_cast<int>(group.size()) ? group[b] : -1; };
   for (size_t i = 0; i < bodies_.size(); ++i)
     for (size_t j = i + 1; j < bodies_.size(); ++j) {
+      if (group_of(bodies_[i]) >= 0 && group_of(bodies_[i]) == group_of(bodies_[j])) continue;
       BodyPairPinch p;
       p.a = bodies_[i];
       p.b = bodies_[j];

@@ -56,8 +56,10 @@ struct BodyPairPinch {
 // answer is a function of the positions only, so a resumed run gets the same states.
 class BodyPinchTracker {
  public:
-  // bodies: ids (into the vectors passed to update) of the bodies taking part, ascending.
-  BodyPinchTracker(std::vector<int> bodies, int threads);
+  // bodies: ids (into the vectors passed to update) of the bodies taking part. group: per body
+  // id, the articulated character it is a part of (empty, or -1: none); parts of one character
+  // overlap at their joints by construction, so a pair of parts is never tracked as a pinch.
+  BodyPinchTracker(std::vector<int> bodies, int threads, const std::vector<int>& group = {});
 
   // start/end: every body's positions (indexed by body id) at the step's start and end; faces
   // likewise. Returns the number of non-free pairs.

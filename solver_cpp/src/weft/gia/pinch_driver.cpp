@@ -9,8 +9,9 @@
 
 namespace weft {
 
-PinchDriver::PinchDriver(std::vector<int> bodies, int body_count, int vertex_count, int threads)
-    : tracker_(std::move(bodies), threads), gripped_(body_count, std::vector<char>(vertex_count, 0)) {}
+PinchDriver::PinchDriver(std::vector<int> bodies, int body_count, int vertex_count, int threads,
+                         const std::vector<int>& group)
+    : tracker_(std::move(bodies), threads, group), gripped_(body_count, std::vector<char>(vertex_count, 0)) {}
 
 void PinchDriver::grip(int i, const Faces& faces, const Positions& start, const Positions& end, CollisionStep& step,
                        CollisionTelemetry& frame) const {

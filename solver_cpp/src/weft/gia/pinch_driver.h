@@ -15,7 +15,8 @@ namespace weft {
 class PinchDriver {
  public:
   // bodies: ids of the collidable bodies (two or more), ascending, among body_count.
-  PinchDriver(std::vector<int> bodies, int body_count, int vertex_count, int threads);
+  PinchDriver(std::vector<int> bodies, int body_count, int vertex_count, int threads,
+              const std::vector<int>& group = {});
 
   // At the step's start (step.x, step.x_end and the bodies' positions set). Refits the
   // detection's cloth tree over the step.

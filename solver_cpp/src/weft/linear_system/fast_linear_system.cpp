@@ -214,6 +214,17 @@ PcgStats FastLinearSystem<Scalar>::solve_with(const ConstraintFilter& filter, Ve
 }
 
 template <class Scalar>
+void FastLinearSystem<Scalar>::residual(const VectorX& dv, VectorX& r) const {
+  const int n = mesh_.vertex_count;
+  const int threads = n >= kParallelSolveRows ? options_.threads : 1;
+  VectorX in(3 * n), out(3 * n);
+  for (int row = 0; row < n; ++row) in.segment<3>(3 * row) = dv.segment<3>(3 * order_[row]);
+  matrix_.multiply(in.data(), out.data(), threads, nullptr);
+  r.resize(3 * n);
+  for (int row = 0; row < n; ++row) r.segment<3>(3 * order_[row]) = rhs_.segment<3>(3 * row) - out.segment<3>(3 * row);
+}
+
+template <class Scalar>
 LinearSystemInfo FastLinearSystem<Scalar>::info() const {
   LinearSystemInfo i;
   i.path = "fast";

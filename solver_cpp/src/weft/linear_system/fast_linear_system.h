@@ -30,6 +30,7 @@ class FastLinearSystem final : public LinearSystemPath {
 
   void build(const Positions& x, const Positions& v, double time, double h) override;
   PcgStats solve(const ConstraintFilter& filter, VectorX& dv) override;
+  void residual(const VectorX& dv, VectorX& r) const override;
   TransientElements* transient() override { return &transient_; }
   LinearSystemInfo info() const override;
 

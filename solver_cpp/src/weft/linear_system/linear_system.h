@@ -57,6 +57,7 @@ class ReferenceLinearSystem final : public LinearSystemPath {
       : mesh_(mesh), model_(model), options_(options), assembler_(mesh) {}
   void build(const Positions& x, const Positions& v, double time, double h) override;
   PcgStats solve(const ConstraintFilter& filter, VectorX& dv) override;
+  void residual(const VectorX& dv, VectorX& r) const override { r = assembler_.rhs() - assembler_.matrix() * dv; }
   LinearSystemInfo info() const override;
   const ReferenceAssembler& assembler() const { return assembler_; }
 

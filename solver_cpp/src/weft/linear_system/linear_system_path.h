@@ -47,6 +47,10 @@ class LinearSystemPath {
   virtual void build(const Positions& x, const Positions& v, double time, double h) = 0;
   // dv: warm start on entry, solution on exit.
   virtual PcgStats solve(const ConstraintFilter& filter, VectorX& dv) = 0;
+  // r = b - A dv for the last built system (original vertex order, unfiltered): at a vertex
+  // whose direction n a constraint prescribed, n . r_i is the impulse the constraint had to add
+  // (positive when it pushed along n).
+  virtual void residual(const VectorX& dv, VectorX& r) const = 0;
   // Transient elements of the coming build() (cleared by the caller); null when unsupported.
   virtual TransientElements* transient() { return nullptr; }
   virtual LinearSystemInfo info() const = 0;
