@@ -147,6 +147,14 @@ class Body(StrictModel):
         default=None, description="Per-frame vertex positions, shape (frames, vertices, 3), one per shot frame."
     )
     collide: bool = True
+    group: Name | None = Field(
+        default=None,
+        description=(
+            "Articulated character this body is a part of. Parts of one character may overlap at "
+            "their joints: cloth stays outside all of them and a pair of parts is never a pinch. "
+            "Unset: bodies that intersect each other at the first frame are joined automatically."
+        ),
+    )
 
 
 class Wind(StrictModel):

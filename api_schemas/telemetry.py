@@ -36,7 +36,8 @@ class FrameTelemetry(BaseModel):
     collision_response_seconds: float = Field(0.0, description="wall seconds in CCD impulses and rigid impact zones")
     proximity_pairs: int = Field(
         0, description="feature pairs within the thickness that received an impulse, summed over substeps")
-    ccd_candidates: int = Field(0, description="feature pairs given to CCD, summed over passes and substeps")
+    ccd_candidates: int = Field(
+        0, description="feature pairs a CCD pass examined (later passes: those with a moved vertex), summed over passes and substeps")
     ccd_hits: int = Field(0, description="CCD hits, summed over passes and substeps")
     impact_zones: int = Field(0, description="rigid impact zones formed, summed over substeps")
     collision_iterations: int = Field(
@@ -59,6 +60,16 @@ class FrameTelemetry(BaseModel):
         0, description="cloth vertices coloured by cloth/cloth GIA at a substep's start, most over the frame")
     gia_self_paths: int = Field(
         0, description="cloth/cloth intersection paths at a substep's start, most over the frame (GIA)")
+    # Contact in the solve and the collision stage's work (docs/collisions.md); appended, so older
+    # caches keep their column order.
+    broad_phase_pairs: int = Field(
+        0, description="feature pairs the broad phase produced (proximity and CCD lists), summed over passes and substeps")
+    contact_constraints: int = Field(
+        0, description="cloth/body contacts constrained inside the linear solve, summed over substeps")
+    released_contacts: int = Field(
+        0, description="contact constraints released after the solve (the cloth pulled away), summed over substeps")
+    max_edge_strain: float = Field(
+        0.0, description="longest cloth edge over its rest length at frame end (1: rest; 1.5: stretched by half)")
 
 
 _DTYPES = {int: "i4", float: "f8"}

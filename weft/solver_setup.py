@@ -99,7 +99,7 @@ def piece_self_collide(shot: Shot) -> list[bool]:
     """Per cloth piece: whether its faces take part in cloth/cloth collisions (see
     `collision_switches`)."""
     features = shot.features
-    has_bodies = len(shot.bodies) > 0
+    has_bodies = any(b.collide for b in shot.bodies)  # a body with collide: false switches nothing on
     self_default = (
         features.self_collision if features.self_collision is not None else (has_bodies or len(shot.cloth) > 1)
     )
@@ -301,16 +301,18 @@ def collision_switches(scene: Scene) -> dict[str, Any]:
     """Resolve the shot's collision switches (None means: decided by what the scene contains).
 
     - Cloth/body contact (``features.collisions``, per piece ``collide``, per body ``collide``):
-      on when the scene has bodies.
+      on when the scene has a collidable body (a body with ``collide: false`` switches nothing on).
+    - Articulated characters (per body ``group``, ``body_groups``): parts of one character may
+      overlap at joints; a pair of parts is never a pinch and does not switch GIA on.
     - Self-collision (``features.self_collision``, per piece ``self_collide``): on when the
-      scene has bodies or more than one cloth piece (cloth that drapes, folds or layers); off
+      scene has a collidable body or more than one cloth piece (cloth that drapes, folds or layers); off
       for a single free piece such as a flag, which then pays nothing for it. Cloth/cloth pairs
       are tested between faces that both have self-collision on, also across pieces.
     - CCD (``features.ccd``): on whenever any collision is on.
     - GIA (``features.gia``): recovery of cloth inside or through closed bodies, body/body
       pinch states (CCD off for cloth caught where two collidable bodies intersect each other)
-      and cloth/cloth untangling (with self-collision). None means on when two collidable bodies
-      intersect each other at some animation frame (decided here,
+      and cloth/cloth untangling (with self-collision). None means on when two collidable bodies,
+      not parts of one character, intersect each other at some animation frame (decided here,
       ``bodies_intersect_each_other``: exact test per frame, bounding boxes first) or, failing
       that, when the cloth starts in intersection: some cloth vertex or triangle through a
       closed collidable body, or the self-colliding cloth self-intersecting (decided by the
@@ -320,7 +322,7 @@ def collision_switches(scene: Scene) -> dict[str, Any]:
     """
     shot = scene.shot
     features = shot.features
-    has_bodies = len(shot.bodies) > 0
+    has_bodies = any(b.collide for b in shot.bodies)
     body_default = features.collisions if features.collisions is not None else has_bodies
     piece_collide = [
         bool(body_default and (p.collide if p.collide is not None else True) and features.collisions is not False)
@@ -332,7 +334,8 @@ def collision_switches(scene: Scene) -> dict[str, Any]:
     enabled = any_body or any(piece_self)
     ccd = enabled and (features.ccd if features.ccd is not None else True)
     gia = (-1 if features.gia is None else int(bool(features.gia))) if (any_body or any(piece_self)) else 0
-    if gia == -1 and any_body and bodies_intersect_each_other(scene, body_collide):
+    groups = body_groups(scene, body_collide) if any_body else [-1] * len(shot.bodies)
+    if gia == -1 and any_body and bodies_intersect_each_other(scene, body_collide, groups):
         gia = 1
     return {
         "enabled": enabled,
@@ -341,32 +344,79 @@ def collision_switches(scene: Scene) -> dict[str, Any]:
         "piece_collide": piece_collide,
         "piece_self_collide": piece_self,
         "body_collide": body_collide,
+        "body_group": groups,
     }
 
 
-def bodies_intersect_each_other(scene: Scene, body_collide: list[bool] | None = None) -> bool:
-    """Whether two collidable bodies intersect each other (surfaces cross, or a vertex of one is
-    inside the other, closed, body) at some animation frame. Exact (``_solver.body_intersection``);
-    frames whose bounding boxes do not overlap are skipped, and a frame where both bodies are
-    where they were at the last tested frame reuses its answer, so long or static shots stay cheap.
-    Motion between keyframes is not looked at."""
+def _intersect(a: BodyArrays, b: BodyArrays, frame: int) -> bool:
     from weft import _solver
 
-    bodies = [b for b, c in zip(scene.bodies, body_collide or [True] * len(scene.bodies)) if c]
-    if len(bodies) < 2:
+    return bool(_solver.body_intersection(np.ascontiguousarray(a.frames[frame]), a.faces,
+                                          np.ascontiguousarray(b.frames[frame]), b.faces)["intersecting"])
+
+
+def body_groups(scene: Scene, body_collide: list[bool]) -> list[int]:
+    """Per body: the articulated character it is a part of (an index), or -1 for none.
+
+    Bodies with the same ``group`` name form one character. Collidable bodies without a group
+    that intersect each other at the first frame are joined into one (the usual collision proxy
+    of a character: closed parts overlapping at the joints). Pairs of parts of one character are
+    never body/body pinches, and their meeting does not switch GIA on."""
+    bodies = scene.bodies
+    named: dict[str, int] = {}
+    parent = list(range(len(bodies)))
+
+    def find(i: int) -> int:
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+
+    for i, spec in enumerate(scene.shot.bodies):
+        if spec.group is not None:
+            j = named.setdefault(spec.group, i)
+            parent[find(i)] = find(j)
+    free = [i for i, spec in enumerate(scene.shot.bodies) if spec.group is None and body_collide[i]]
+    lo = {i: bodies[i].frames[0].min(axis=0) for i in free}
+    hi = {i: bodies[i].frames[0].max(axis=0) for i in free}
+    for a_index, i in enumerate(free):
+        for j in free[a_index + 1:]:
+            if find(i) == find(j) or not np.all((lo[i] <= hi[j]) & (lo[j] <= hi[i])):
+                continue
+            if _intersect(bodies[i], bodies[j], 0):
+                parent[max(find(i), find(j))] = min(find(i), find(j))
+    roots = [find(i) for i in range(len(bodies))]
+    size = {r: roots.count(r) for r in roots}
+    return [r if size[r] > 1 else -1 for r in roots]
+
+
+def bodies_intersect_each_other(scene: Scene, body_collide: list[bool] | None = None,
+                                groups: list[int] | None = None) -> bool:
+    """Whether two collidable bodies that are not parts of one character (``body_groups``)
+    intersect each other (surfaces cross, or a vertex of one is inside the other, closed, body)
+    at some animation frame. Exact (``_solver.body_intersection``); frames whose bounding boxes
+    do not overlap are skipped, and a frame where both bodies are where they were at the last
+    tested frame reuses its answer, so long or static shots stay cheap. Motion between
+    keyframes is not looked at."""
+    collide = body_collide or [True] * len(scene.bodies)
+    groups = groups or [-1] * len(scene.bodies)
+    ids = [i for i, c in enumerate(collide) if c]
+    if len(ids) < 2:
         return False
-    lo = [b.frames.min(axis=1) for b in bodies]  # (frames, 3) per body
-    hi = [b.frames.max(axis=1) for b in bodies]
-    for i in range(len(bodies)):
-        for j in range(i + 1, len(bodies)):
+    bodies = scene.bodies
+    lo = {i: bodies[i].frames.min(axis=1) for i in ids}  # (frames, 3) per body
+    hi = {i: bodies[i].frames.max(axis=1) for i in ids}
+    for a_index, i in enumerate(ids):
+        for j in ids[a_index + 1:]:
+            if groups[i] >= 0 and groups[i] == groups[j]:
+                continue
             overlap = np.all((lo[i] <= hi[j]) & (lo[j] <= hi[i]), axis=1)
             last: tuple[np.ndarray, np.ndarray] | None = None
             for k in np.flatnonzero(overlap):
                 xa, xb = bodies[i].frames[k], bodies[j].frames[k]
                 if last is not None and np.array_equal(xa, last[0]) and np.array_equal(xb, last[1]):
                     continue  # same as the last tested frame: not intersecting
-                if _solver.body_intersection(np.ascontiguousarray(xa), bodies[i].faces,
-                                             np.ascontiguousarray(xb), bodies[j].faces)["intersecting"]:
+                if _intersect(bodies[i], bodies[j], int(k)):
                     return True
                 last = (xa, xb)
     return False
@@ -388,6 +438,7 @@ def collision_settings(scene: Scene) -> Any:
     settings.face_collide = np.repeat(switches["piece_collide"], counts).astype(bool).tolist()
     settings.face_self_collide = np.repeat(switches["piece_self_collide"], counts).astype(bool).tolist()
     settings.body_collide = switches["body_collide"]
+    settings.body_group = switches["body_group"]
     settings.face_thickness = np.repeat([m.thickness for m in materials], counts).astype(np.float64)
     settings.face_friction = np.repeat([m.friction for m in materials], counts).astype(np.float64)
     return settings

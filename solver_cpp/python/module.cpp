@@ -76,7 +76,8 @@ PYBIND11_MODULE(_solver, m) {
       .def_readonly("substeps", &FrameTelemetry::substeps)
       .def_readonly("unconverged_substeps", &FrameTelemetry::unconverged_substeps)
       .def_readonly("kinetic_energy", &FrameTelemetry::kinetic_energy)
-      .def_readonly("potential_energy", &FrameTelemetry::potential_energy);
+      .def_readonly("potential_energy", &FrameTelemetry::potential_energy)
+      .def_readonly("max_edge_strain", &FrameTelemetry::max_edge_strain);
 
   py::class_<Energies>(m, "Energies")
       .def_readonly("kinetic", &Energies::kinetic)

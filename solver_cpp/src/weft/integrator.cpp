@@ -182,6 +182,7 @@ FrameTelemetry Simulation::advance_frame(double frame_start_time, double frame_d
   const Energies e = energies();
   telemetry.kinetic_energy = e.kinetic;
   telemetry.potential_energy = e.gravity + e.elastic;
+  telemetry.max_edge_strain = max_edge_strain(mesh_, x_);
   telemetry.total_seconds = frame_timer.seconds();
   return telemetry;
 }

@@ -53,6 +53,7 @@ struct FrameTelemetry {
   int unconverged_substeps = 0;
   double kinetic_energy = 0.0;
   double potential_energy = 0.0;  // gravity + elastic
+  double max_edge_strain = 0.0;   // longest edge over its rest length at frame end (mesh.h)
   CollisionTelemetry collision;   // split of collision_seconds and counts (collision_response.h)
 };
 

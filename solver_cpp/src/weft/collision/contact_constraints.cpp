@@ -72,7 +72,8 @@ void ContactConstraints::constrain(const Positions& x, const Positions& v, doubl
 int ContactConstraints::impulses(const VectorX& residual) {
   int pulled = 0;
   for (Contact& c : contacts_) {
-    const double impulse = c.normal.dot(residual.segment<3>(3 * c.vertex));
+    // The solved system is A dv = b + (constraint impulses): the constraint's is -r_i.
+    const double impulse = -c.normal.dot(residual.segment<3>(3 * c.vertex));
     if (impulse < 0.0) {
       released_[c.vertex] = 1;
       ++pulled;

@@ -48,7 +48,7 @@ class LinearSystemPath {
   // dv: warm start on entry, solution on exit.
   virtual PcgStats solve(const ConstraintFilter& filter, VectorX& dv) = 0;
   // r = b - A dv for the last built system (original vertex order, unfiltered): at a vertex
-  // whose direction n a constraint prescribed, n . r_i is the impulse the constraint had to add
+  // whose direction n a constraint prescribed, -n . r_i is the impulse the constraint had to add
   // (positive when it pushed along n).
   virtual void residual(const VectorX& dv, VectorX& r) const = 0;
   // Transient elements of the coming build() (cleared by the caller); null when unsupported.

@@ -48,6 +48,10 @@ using FaceUVs = Eigen::Matrix<double, Eigen::Dynamic, 6, Eigen::RowMajor>;
 ClothMesh build_cloth_mesh(int vertex_count, const Faces& faces, const FaceUVs& face_uv,
                            const Positions& rest_positions);
 
+// Largest ratio of an edge's length in x to its rest length (from the triangles' rest frames),
+// over every edge of every triangle: 1 at rest, 1.5 for an edge stretched by half.
+double max_edge_strain(const ClothMesh& mesh, const Positions& x);
+
 // Signed dihedral angle of a hinge in the convention used by the bending force.
 double hinge_angle(const Vec3& x0, const Vec3& x1, const Vec3& x2, const Vec3& x3);
 

@@ -1,0 +1,240 @@
+"""Contact benchmark (issue 12, item 7): the procedural contact scenes of `scenes/contact.py` run by
+weft and, with `--peer blender`, by Blender cloth in the same run (same scene, same frame count,
+same thread count), one table row per (scene, solver), metrics from `bench.contact_metrics`.
+
+    python -m bench.contact [--json PATH] [--peer blender] [--scenes a,b] [--frames N] [--threads 2]
+
+s/frame is the wall time of each simulated frame (weft: `Simulation.advance_frame`; Blender:
+`scene.frame_set`), mean and max over the frames after the initial one (the setup, building
+the solver or the cloth cache, is reported apart). `ratio` = Blender s/frame / weft s/frame,
+measured one after the other in this process's run. weft's step breakdown (build, solve,
+collision and GIA seconds per frame, CG iterations per substep, CCD candidates, proximity
+pairs, impact zones, unresolved collisions) comes from its per-frame telemetry.
+"""
+
+from __future__ import annotations
+
+import os
+
+os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")  # as bench/gia_pinch_cost.py: shared 2-core machines
+
+import argparse  # noqa: E402
+import inspect  # noqa: E402
+import json  # noqa: E402
+import platform  # noqa: E402
+import sys  # noqa: E402
+import tempfile  # noqa: E402
+import time  # noqa: E402
+from pathlib import Path  # noqa: E402
+from typing import Any  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+from bench.contact_metrics import BodyTrack, contact_metrics, edge_rest_lengths  # noqa: E402
+
+# Frames simulated per scene by default (the initial frame included): `python -m bench.contact`
+# over every scene, weft only, in about 10-15 minutes on 2 loaded cores. The dress scenes stop at
+# frame 12 (the legs swing from frame 5): from there the merged dress took weft 20 s/frame on
+# average and up to 60 s (24 frames, 2 loaded cores).
+DEFAULT_FRAMES = {
+    "drape_sphere": 48,
+    "drape_sphere_16k": 24,
+    "sleeve_swing": 24,
+    "box_pinch": 25,
+    "thin_limb": 16,
+    "articulated_dress": 12,
+    "articulated_dress_merged": 12,
+}
+
+
+def build_scene(name: str, directory: Path, frames: int) -> Any:
+    """The resolved weft scene of a named contact scene, at least `frames` long when the builder
+    takes a frame count."""
+    from scenes.contact import SCENES
+    from weft.shot import parse_shot
+    from weft.solver_setup import resolve_scene
+
+    make = SCENES[name]
+    kwargs = {"frames": frames} if "frames" in inspect.signature(make).parameters else {}
+    return resolve_scene(parse_shot(make(directory, **kwargs)), directory)
+
+
+def run_weft(scene: Any, frames: int, threads: int) -> dict[str, Any]:
+    """Simulates the first `frames` frames (the initial state included) keeping every frame's
+    positions in memory; stops at a solver failure."""
+    from weft.simulate import SolverFailure, advance, new_simulation, telemetry_row
+
+    shot = scene.shot
+    start = time.perf_counter()
+    sim = new_simulation(scene, threads)
+    setup = time.perf_counter() - start
+    positions, seconds, telemetry, failure = [np.array(sim.positions)], [], [], None
+    for index in range(1, frames):
+        start = time.perf_counter()
+        try:
+            t = advance(sim, scene, index)
+        except SolverFailure as exc:
+            failure = str(exc)
+            break
+        seconds.append(time.perf_counter() - start)
+        telemetry.append(telemetry_row(shot.frame_range[0] + index, t))
+        positions.append(np.array(sim.positions))
+    return {"positions": np.stack(positions), "frame_seconds": np.asarray(seconds), "setup_seconds": setup,
+            "telemetry": telemetry, "failure": failure}
+
+
+def weft_breakdown(telemetry: list[Any]) -> dict[str, Any]:
+    """Means per simulated frame of weft's telemetry (CG iterations per substep)."""
+    if not telemetry:
+        return {}
+
+    def column(name: str) -> np.ndarray:
+        return np.array([getattr(t, name) for t in telemetry], dtype=np.float64)
+
+    substeps = column("substeps").sum()
+    out = {f"{name}_per_frame": float(column(name).mean()) for name in (
+        "build_seconds", "solve_seconds", "collision_seconds", "gia_seconds", "total_seconds", "ccd_candidates",
+        "proximity_pairs", "impact_zones")}
+    out.update({
+        "cg_iterations_per_substep": float(column("cg_iterations").sum() / max(substeps, 1.0)),
+        "unconverged_substeps": int(column("unconverged_substeps").sum()),
+        "impact_zones_total": int(column("impact_zones").sum()),
+        "unresolved_collisions_total": int(column("unresolved_collisions").sum()),
+        "gia_coloured_vertices_max": int(column("gia_coloured_vertices").max()),
+        "intersections_final": int(column("intersections")[-1]),
+    })
+    return out
+
+
+def measure(scene: Any, solver: str, run: dict[str, Any], threads: int) -> dict[str, Any]:
+    positions = run["positions"]
+    bodies = [BodyTrack(b.name, b.faces, np.asarray(b.frames[:len(positions)])) for b in scene.bodies]
+    metrics = contact_metrics(positions, scene.faces, edge_rest_lengths(scene.face_uv), bodies,
+                              run["frame_seconds"], scene.shot.fps, threads=threads)
+    return {"solver": solver, "vertices": scene.vertex_count, "setup_seconds": run["setup_seconds"], **metrics}
+
+
+def run_scene(name: str, frames: int | None, threads: int, peer: str | None,
+              blender_mass: str = "mapped") -> list[dict[str, Any]]:
+    with tempfile.TemporaryDirectory(prefix=f"weft-contact-{name}-") as tmp:
+        wanted = frames or DEFAULT_FRAMES[name]
+        scene = build_scene(name, Path(tmp), wanted)
+        wanted = min(wanted, scene.frame_count)
+        weft_run = run_weft(scene, wanted, threads)
+        row = measure(scene, "weft", weft_run, threads)
+        row.update(scene=name, rest=scene.shot.cloth[0].rest.kind, failure=weft_run["failure"],
+                   telemetry=weft_breakdown(weft_run["telemetry"]),
+                   telemetry_frames=[t.model_dump() for t in weft_run["telemetry"]])
+        rows = [row]
+        if peer == "blender":
+            from bench.blender_peer import run_peer
+
+            try:
+                peer_run = run_peer(scene, wanted, threads, blender_mass)
+            except RuntimeError as exc:
+                rows.append({"scene": name, "solver": "blender", "failure": str(exc)})
+                return rows
+            peer_row = measure(scene, "blender", peer_run, threads)
+            info = peer_run["info"]
+            peer_row.update(scene=name, rest=f"{info['rest']}; {info['vertex_mass_kg']:.2g} kg/vertex", failure=None,
+                            blender=info)
+            if row["s_per_frame_mean"] and peer_row["s_per_frame_mean"]:
+                peer_row["ratio"] = peer_row["s_per_frame_mean"] / row["s_per_frame_mean"]
+            rows.append(peer_row)
+        return rows
+
+
+def _fmt(value: Any, spec: str, scale: float = 1.0) -> str:
+    return "-" if value is None else format(value * scale, spec)
+
+
+def format_tables(rows: list[dict[str, Any]]) -> list[Any]:
+    """The results table (a row per scene and solver) and weft's step breakdown (rich tables)."""
+    from rich.table import Table
+
+    main = Table(title="contact benchmark (s/frame: wall, frame 1 setup excluded; ratio = blender / weft)")
+    for column in ("scene", "solver", "verts", "frames", "s/frame", "max s", "ratio", "inside max/fin",
+                   "gap min/med mm", "cloth-body max/fin", "cloth-cloth max/fin", "max strain", "max m/s", "NaN",
+                   "rest / notes"):
+        main.add_column(column, justify="left" if column in ("scene", "solver", "rest / notes") else "right")
+    for r in rows:
+        if "frames" not in r:
+            main.add_row(r["scene"], r["solver"], *["-"] * 12, "failed: " + r["failure"].splitlines()[0][:80])
+            continue
+        note = "rest: " + r.get("rest", "")
+        if r.get("failure"):
+            note += f"; stopped: {r['failure'][:60]}"
+        main.add_row(
+            r["scene"], r["solver"], str(r["vertices"]), str(r["frames"]), _fmt(r["s_per_frame_mean"], ".3f"),
+            _fmt(r["s_per_frame_max"], ".3f"), _fmt(r.get("ratio"), ".2f"), f"{r['inside_max']}/{r['inside_final']}",
+            f"{_fmt(r.get('gap_min_m'), '.1f', 1e3)}/{_fmt(r.get('gap_median_m'), '.1f', 1e3)}",
+            f"{r['cloth_body_pairs_max']}/{r['cloth_body_pairs_final']}",
+            f"{r['cloth_cloth_pairs_max']}/{r['cloth_cloth_pairs_final']}", _fmt(r["max_strain"], ".3f"),
+            _fmt(r["max_speed_m_s"], ".2f"), "yes" if r["nan"] else "no", note,
+        )
+    steps = Table(title="weft step breakdown (per simulated frame; CG iterations per substep)")
+    for column in ("scene", "build s", "solve s", "collision s", "gia s", "CG it/substep", "CCD cand/frame",
+                   "prox pairs/frame", "impact zones", "unresolved", "unconverged"):
+        steps.add_column(column, justify="left" if column == "scene" else "right")
+    for r in rows:
+        t = r.get("telemetry")
+        if r["solver"] != "weft" or not t:
+            continue
+        steps.add_row(
+            r["scene"], *(f"{t[k]:.3f}" for k in ("build_seconds_per_frame", "solve_seconds_per_frame",
+                                                   "collision_seconds_per_frame", "gia_seconds_per_frame")),
+            f"{t['cg_iterations_per_substep']:.0f}", f"{t['ccd_candidates_per_frame']:.0f}",
+            f"{t['proximity_pairs_per_frame']:.0f}", str(t["impact_zones_total"]), str(t["unresolved_collisions_total"]),
+            str(t["unconverged_substeps"]),
+        )
+    return [main, steps]
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m bench.contact", description=__doc__.split("\n\n")[0])
+    parser.add_argument("--json", type=Path, help="write every number to this JSON file")
+    parser.add_argument("--peer", choices=["blender"], help="also run each scene in Blender cloth (bpy)")
+    parser.add_argument("--scenes", help=f"comma-separated subset of: {', '.join(DEFAULT_FRAMES)}")
+    parser.add_argument("--frames", type=int, help="frames per scene, the initial one included (default: per scene)")
+    parser.add_argument("--threads", type=int, default=2)
+    parser.add_argument("--blender-mass", choices=["mapped", "default"], default="mapped",
+                        help="Blender vertex mass: density x area (mapped) or Blender's default 0.3 kg")
+    args = parser.parse_args(argv)
+    names = args.scenes.split(",") if args.scenes else list(DEFAULT_FRAMES)
+    unknown = [n for n in names if n not in DEFAULT_FRAMES]
+    if unknown:
+        parser.error(f"unknown scene(s) {unknown}; choose from {list(DEFAULT_FRAMES)}")
+    if args.frames is not None and args.frames < 2:
+        parser.error("--frames must be at least 2 (the initial state and one simulated frame)")
+    if args.peer == "blender":
+        try:
+            import importlib.util
+
+            if importlib.util.find_spec("bpy") is None:
+                raise ImportError
+        except ImportError:
+            from bench.blender_peer import BPY_MISSING
+
+            parser.error(BPY_MISSING)
+
+    from rich.console import Console
+
+    console = Console(width=None if sys.stdout.isatty() else 200)
+    load_before = os.getloadavg()
+    rows: list[dict[str, Any]] = []
+    for name in names:
+        console.print(f"[dim]{name} ...[/dim]")
+        rows.extend(run_scene(name, args.frames, args.threads, args.peer, args.blender_mass))
+    for table in format_tables(rows):
+        console.print(table)
+    if args.json:
+        args.json.parent.mkdir(parents=True, exist_ok=True)
+        report = {"threads": args.threads, "peer": args.peer, "blender_mass": args.blender_mass, "cpus": os.cpu_count(), "machine": platform.platform(),
+                  "load_average_before": load_before, "load_average_after": os.getloadavg(), "rows": rows}
+        args.json.write_text(json.dumps(report, indent=1, default=float))
+        console.print(f"wrote {args.json}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

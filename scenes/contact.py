@@ -1,0 +1,265 @@
+"""Procedural contact scenes for the contact benchmark (`python -m bench.contact`, issue 12 item 7).
+
+Each scene is a function of a directory (where its asset files go: body animations as NPZ, rest
+shapes) and its size parameters, returning a shot document (dict) whose asset paths are relative
+to that directory. The same documents are run by weft and, with `--peer blender`, by Blender
+cloth (`bench/blender_peer.py`), so every body here moves rigidly (per-frame vertex positions of
+a rigid motion: the Blender side recovers the transforms from them).
+
+Scenes (`SCENES` maps names to builders):
+
+- `drape_sphere` / `drape_sphere_16k`: an n x n sheet (64 x 64 = 4,096 vertices, 128 x 128 =
+  16,384) 1 m wide released 0.15 m above a sphere of radius 0.3 m; thickness 5 mm, self-collision on.
+- `sleeve_swing`: a cloth sleeve pinned to a thin limb swung at several m/s
+  (`weft.collision_scenes.sleeve_shot`).
+- `box_pinch`: a sheet pinched between two closing boxes (`weft.collision_scenes.box_pinch_shot`).
+- `thin_limb`: a tessellated limb (radius 1.5 cm) moving at 3 m/s through a sheet hanging from
+  its top row.
+- `articulated_dress` / `articulated_dress_merged`: a character of 14 closed parts (capsules,
+  an icosphere head, box feet) overlapping at the joints, arms and legs swinging, wearing a tube
+  dress whose rest shape is 0.9 of its starting girth; the parts are separate bodies, or one
+  merged body (the same overlapping parts concatenated).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from scenes.builders import inline_mesh, sheet_shot
+from scenes.collision import box_mesh, box_pinch_shot, sleeve_mesh, sleeve_shot, sphere_mesh, tube_mesh
+
+
+def drape_sphere(directory: Path, n: int = 64, frames: int = 48, width: float = 1.0, radius: float = 0.3,
+                 drop: float = 0.15, thickness: float = 0.005, substeps: int = 4) -> dict[str, Any]:
+    """An n x n horizontal sheet, `width` wide, `drop` above a sphere of `radius` at the origin."""
+    vertices, faces = sphere_mesh(radius, subdivisions=4)
+    doc = sheet_shot(f"drape_sphere_{n}", n, n, width, width, plane="xz",
+                     origin=(-width / 2, radius + drop, -width / 2), frames=frames, substeps=substeps,
+                     material={"thickness": thickness, "friction": 0.5, "damping": 0.01}, air_drag=0.2)
+    doc["bodies"] = [{"name": "sphere", "mesh": inline_mesh(vertices, faces)}]
+    doc["features"] = {"self_collision": True}
+    return doc
+
+
+def drape_sphere_16k(directory: Path, n: int = 128, frames: int = 48) -> dict[str, Any]:
+    return drape_sphere(directory, n=n, frames=frames)
+
+
+def sleeve_swing(directory: Path, frames: int = 24, swing_frames: int = 4) -> dict[str, Any]:
+    """`sleeve_shot`: tip speed about 5 m/s at the fastest (quarter turn in 4 frames)."""
+    doc = sleeve_shot(directory, frames=frames, swing_frames=swing_frames)
+    doc["name"] = "sleeve_swing"
+    return doc
+
+
+def box_pinch(directory: Path, n: int = 24, after: int = 8) -> dict[str, Any]:
+    """`box_pinch_shot` with an n x n sheet: 2 * 5 + 6 + 1 + `after` frames."""
+    return box_pinch_shot(directory, n=n, after=after)
+
+
+def thin_limb(directory: Path, n: int = 32, frames: int = 16, speed: float = 3.0, limb_radius: float = 0.015,
+              width: float = 0.5, substeps: int = 4) -> dict[str, Any]:
+    """A `width` sheet hanging from its top row (vertical, in the xy plane, top at y = 0); a limb
+    along x (closed tube, `limb_radius`, 1 m long, 12 x 20 tessellated) 0.3 m below the top
+    starts 0.25 m behind the sheet and moves along +z at `speed` m/s until 0.5 m in front of it,
+    then stays."""
+    limb_v, limb_f = tube_mesh(limb_radius, 1.0, sections=12, segments=20)
+    start = limb_v + [width / 2, -0.6 * width, -0.25]
+    fps = 24.0
+    offsets = np.minimum(speed * np.arange(frames) / fps, 0.75)
+    animation = np.stack([start + [0.0, 0.0, dz] for dz in offsets])
+    directory.mkdir(parents=True, exist_ok=True)
+    np.savez(directory / "limb.npz", positions=animation)
+    doc = sheet_shot("thin_limb", n, n, width, width, plane="xy", pins=list(range(n)), frames=frames,
+                     substeps=substeps, fps=fps, material={"friction": 0.3, "damping": 0.01}, air_drag=0.2)
+    doc["bodies"] = [{"name": "limb", "mesh": inline_mesh(start, limb_f), "animation": {"path": "limb.npz"}}]
+    return doc
+
+
+# -- the articulated character ---------------------------------------------------------------------
+
+def capsule_mesh(a, b, radius: float, sections: int = 16, caps: int = 4,
+                 spacing: float = 0.02) -> tuple[np.ndarray, np.ndarray]:
+    """A closed capsule (cylinder with hemispherical ends) from point a to point b: rings of
+    `sections` vertices, `caps` rings per hemisphere, cylinder rings at most `spacing` apart, a
+    pole at each end; outward normals."""
+    import trimesh
+
+    a, b = np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64)
+    length = float(np.linalg.norm(b - a))
+    cap = np.linspace(-np.pi / 2, 0.0, caps + 1)[1:]
+    along = np.linspace(0.0, length, max(2, int(np.ceil(length / spacing)) + 1))
+    profile = ([(radius * np.sin(t), radius * np.cos(t)) for t in cap] + [(z, radius) for z in along[1:-1]]
+               + [(length - radius * np.sin(t), radius * np.cos(t)) for t in cap[::-1]])
+    angles = 2 * np.pi * np.arange(sections) / sections
+    rings = [np.stack([r * np.cos(angles), r * np.sin(angles), np.full(sections, z)], axis=1) for z, r in profile]
+    vertices = np.concatenate(rings + [[[0.0, 0.0, -radius], [0.0, 0.0, length + radius]]])
+    faces = []
+    for i in range(len(rings) - 1):
+        for j in range(sections):
+            p, q = i * sections + j, i * sections + (j + 1) % sections
+            faces += [[p, q, q + sections], [p, q + sections, p + sections]]
+    bottom, top, last = len(vertices) - 2, len(vertices) - 1, (len(rings) - 1) * sections
+    for j in range(sections):
+        faces += [[bottom, (j + 1) % sections, j], [top, last + j, last + (j + 1) % sections]]
+    rotation = trimesh.geometry.align_vectors([0.0, 0.0, 1.0], (b - a) / length)[:3, :3]
+    return vertices @ rotation.T + a, np.asarray(faces, dtype=np.int64)
+
+
+@dataclass
+class Part:
+    name: str
+    vertices: np.ndarray  # rest (frame 0) positions
+    faces: np.ndarray
+    chain: tuple[str, ...]  # joints from the body outwards; the part follows their rotations
+    dress_support: tuple[float, float, float, float] | None = None  # vertical capsule: y0, y1, radius, axis distance
+
+
+# Joint pivots (rest positions) and the rotation axis of every joint (all about x: swings
+# forward and back).
+JOINTS = {
+    "shoulder_l": (0.17, 1.42, 0.0), "elbow_l": (0.22, 1.14, 0.0),
+    "shoulder_r": (-0.17, 1.42, 0.0), "elbow_r": (-0.22, 1.14, 0.0),
+    "hip_l": (0.09, 0.92, 0.0), "knee_l": (0.09, 0.50, 0.0),
+    "hip_r": (-0.09, 0.92, 0.0), "knee_r": (-0.09, 0.50, 0.0),
+}
+
+
+def character_parts() -> list[Part]:
+    """A 1.8 m character standing at the origin (y up, facing +z): head, neck, torso, hips,
+    upper and lower arms and legs (capsules), feet (boxes): 14 closed parts, each overlapping its
+    neighbours at the joints."""
+    head_v, head_f = sphere_mesh(0.1, subdivisions=2, centre=(0.0, 1.72, 0.0))
+    parts = [
+        Part("head", head_v, head_f, ()),
+        Part("neck", *capsule_mesh((0, 1.48, 0), (0, 1.64, 0), 0.05), ()),
+        Part("torso", *capsule_mesh((0, 1.15, 0), (0, 1.40, 0), 0.14), (), (1.15, 1.40, 0.14, 0.0)),
+        Part("hips", *capsule_mesh((0, 0.86, 0), (0, 1.02, 0), 0.155), (), (0.86, 1.02, 0.155, 0.0)),
+    ]
+    for side, s in (("l", 1.0), ("r", -1.0)):
+        shoulder, elbow = np.array(JOINTS[f"shoulder_{side}"]), np.array(JOINTS[f"elbow_{side}"])
+        hip, knee = np.array(JOINTS[f"hip_{side}"]), np.array(JOINTS[f"knee_{side}"])
+        wrist, ankle = (s * 0.24, 0.86, 0.0), (s * 0.09, 0.10, 0.0)
+        parts += [
+            Part(f"upper_arm_{side}", *capsule_mesh(shoulder, elbow, 0.045), (f"shoulder_{side}",)),
+            Part(f"lower_arm_{side}", *capsule_mesh(elbow, wrist, 0.038), (f"shoulder_{side}", f"elbow_{side}")),
+            Part(f"upper_leg_{side}", *capsule_mesh(hip, knee, 0.07), (f"hip_{side}",), (knee[1], hip[1], 0.07, 0.09)),
+            Part(f"lower_leg_{side}", *capsule_mesh(knee, ankle, 0.05), (f"hip_{side}", f"knee_{side}")),
+            Part(f"foot_{side}", *box_mesh((0.09, 0.06, 0.22), (s * 0.09, 0.05, 0.05)), (f"hip_{side}", f"knee_{side}")),
+        ]
+    return parts
+
+
+def joint_angles(frames: int, fps: float = 24.0, still: int = 4, ramp: int = 6, period: float = 1.0,
+                 arm: float = np.radians(35.0), leg: float = np.radians(25.0)) -> dict[str, np.ndarray]:
+    """Per-frame joint angles (radians): still for `still` frames, then a walk-like swing (arms
+    and legs in opposite phase, elbows and knees bending) whose amplitude ramps up over `ramp`
+    frames."""
+    k = np.arange(frames, dtype=np.float64)
+    t = np.maximum(k - still, 0.0) / fps
+    weight = np.clip((k - still) / ramp, 0.0, 1.0)
+    weight = weight * weight * (3.0 - 2.0 * weight)  # smoothstep
+    swing = weight * np.sin(2 * np.pi * t / period)
+    bend = weight * 0.5 * (1.0 - np.cos(2 * np.pi * t / period))
+    return {
+        "shoulder_l": -arm * swing, "shoulder_r": arm * swing,
+        "elbow_l": -np.radians(25.0) * bend, "elbow_r": -np.radians(25.0) * bend,
+        "hip_l": leg * swing, "hip_r": -leg * swing,
+        "knee_l": np.radians(30.0) * bend, "knee_r": np.radians(30.0) * bend,
+    }
+
+
+def rotation_about(pivot, angle: float) -> np.ndarray:
+    """4 x 4 rotation by `angle` about the x axis through `pivot`."""
+    c, s = np.cos(angle), np.sin(angle)
+    m = np.eye(4)
+    m[1:3, 1:3] = [[c, -s], [s, c]]
+    p = np.asarray(pivot, dtype=np.float64)
+    m[:3, 3] = p - m[:3, :3] @ p
+    return m
+
+
+def part_animation(part: Part, angles: dict[str, np.ndarray]) -> np.ndarray:
+    """(frames, V, 3) positions of a part moved by its joint chain (proximal joint outermost)."""
+    frames = len(next(iter(angles.values())))
+    out = np.empty((frames, *part.vertices.shape))
+    for k in range(frames):
+        m = np.eye(4)
+        for joint in part.chain:
+            m = m @ rotation_about(JOINTS[joint], angles[joint][k])
+        out[k] = part.vertices @ m[:3, :3].T + m[:3, 3]
+    return out
+
+
+def dress_mesh(parts: list[Part], around: int, along: int, top: float = 1.25, bottom: float = 0.55,
+               offset: float = 0.005) -> tuple[np.ndarray, np.ndarray]:
+    """An open tube around the vertical axis from y = `top` down to `bottom` (`along` rings of
+    `around` vertices), each ring `offset` outside the widest of the supporting parts (torso,
+    hips, upper legs: vertical capsules, their tessellations lie inside them) at its height."""
+    unit_v, faces = sleeve_mesh(1.0, 1.0, around=around, along=along)
+    ys = top - unit_v[:, 0] * (top - bottom)
+    radius = np.zeros(len(ys))
+    for part in parts:
+        if part.dress_support is None:
+            continue
+        y0, y1, r, axis = part.dress_support
+        dy = np.maximum(np.maximum(y0 - ys, ys - y1), 0.0)
+        extent = np.where(dy < r, axis + np.sqrt(np.maximum(r * r - dy * dy, 0.0)), 0.0)
+        radius = np.maximum(radius, extent)
+    radius += offset
+    vertices = np.stack([radius * unit_v[:, 1], ys, radius * unit_v[:, 2]], axis=1)
+    return vertices, faces
+
+
+def articulated_dress(directory: Path, frames: int = 24, around: int = 64, along: int = 48, shrink: float = 0.9,
+                      offset: float = 0.005, thickness: float = 0.003, merged: bool = False,
+                      substeps: int = 4) -> dict[str, Any]:
+    """The character (`character_parts`) animated by `joint_angles`, wearing a dress
+    (`dress_mesh`, around x along vertices) that starts `offset` outside the body and whose rest
+    shape is `shrink` times its starting girth (positions scaled toward the vertical axis).
+    Bodies: one per part (`articulated_dress`), or all parts as one mesh (`merged`)."""
+    parts = character_parts()
+    angles = joint_angles(frames)
+    animations = [part_animation(p, angles) for p in parts]
+    dress_v, dress_f = dress_mesh(parts, around, along, offset=offset)
+    rest = dress_v * [shrink, 1.0, shrink]
+    directory.mkdir(parents=True, exist_ok=True)
+    np.savez(directory / "dress_rest.npz", positions=rest)
+    if merged:
+        offsets = np.cumsum([0] + [len(p.vertices) for p in parts])
+        faces = np.concatenate([p.faces + o for p, o in zip(parts, offsets)])
+        bodies = [("body", np.concatenate(animations, axis=1), faces)]
+    else:
+        bodies = [(p.name, a, p.faces) for p, a in zip(parts, animations)]
+    doc = sheet_shot("articulated_dress_merged" if merged else "articulated_dress", 2, 2, 1.0, 1.0,
+                     frames=frames, substeps=substeps, air_drag=0.2,
+                     material={"thickness": thickness, "friction": 0.4, "damping": 0.01})
+    doc["cloth"][0].update({"name": "dress", "mesh": inline_mesh(dress_v, dress_f),
+                            "rest": {"kind": "positions", "positions": {"path": "dress_rest.npz"}}})
+    doc["bodies"] = []
+    for name, animation, faces in bodies:
+        np.savez(directory / f"{name}.npz", positions=animation)
+        doc["bodies"].append({"name": name, "mesh": inline_mesh(animation[0], faces),
+                              "animation": {"path": f"{name}.npz"}})
+    doc["features"] = {"self_collision": True}
+    return doc
+
+
+def articulated_dress_merged(directory: Path, **kwargs: Any) -> dict[str, Any]:
+    return articulated_dress(directory, merged=True, **kwargs)
+
+
+SCENES: dict[str, Callable[..., dict[str, Any]]] = {
+    "drape_sphere": drape_sphere,
+    "drape_sphere_16k": drape_sphere_16k,
+    "sleeve_swing": sleeve_swing,
+    "box_pinch": box_pinch,
+    "thin_limb": thin_limb,
+    "articulated_dress": articulated_dress,
+    "articulated_dress_merged": articulated_dress_merged,
+}

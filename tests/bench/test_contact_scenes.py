@@ -1,0 +1,108 @@
+"""The contact benchmark's scenes (`scenes/contact.py`) at tiny sizes and its metrics
+(`bench/contact_metrics.py`) on hand-made positions. The benchmark itself takes minutes."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from bench.contact import build_scene, run_weft, weft_breakdown
+from bench.contact_metrics import BodyTrack, contact_metrics, edge_rest_lengths, is_closed, point_triangle_distance
+from scenes.contact import SCENES, character_parts
+from scenes.collision import box_mesh
+from weft.shot import parse_shot
+from weft.solver_setup import resolve_scene
+
+TINY = {
+    "drape_sphere": {"n": 6, "frames": 2},
+    "drape_sphere_16k": {"n": 6, "frames": 2},
+    "sleeve_swing": {"frames": 2},
+    "box_pinch": {"n": 5, "after": 0},
+    "thin_limb": {"n": 6, "frames": 2},
+    "articulated_dress": {"around": 12, "along": 6, "frames": 2},
+    "articulated_dress_merged": {"around": 12, "along": 6, "frames": 2},
+}
+
+
+def test_every_scene_has_a_tiny_size() -> None:
+    assert set(TINY) == set(SCENES)
+
+
+@pytest.mark.parametrize("name", sorted(SCENES))
+def test_scene_validates_and_runs_two_frames(name: str, tmp_path: Path) -> None:
+    scene = resolve_scene(parse_shot(SCENES[name](tmp_path, **TINY[name])), tmp_path)
+    run = run_weft(scene, 2, threads=1)
+    assert run["failure"] is None
+    assert run["positions"].shape == (2, scene.vertex_count, 3)
+    assert np.isfinite(run["positions"]).all()
+    assert weft_breakdown(run["telemetry"])["cg_iterations_per_substep"] > 0
+
+
+def test_character_parts_are_closed_and_overlap_at_the_joints() -> None:
+    from weft import _solver
+
+    parts = {p.name: p for p in character_parts()}
+    assert 10 <= len(parts) <= 16 and all(is_closed(p.faces) for p in parts.values())
+    for a, b in (("torso", "hips"), ("torso", "upper_arm_l"), ("upper_arm_r", "lower_arm_r"), ("hips", "upper_leg_l"),
+                 ("neck", "head"), ("lower_leg_r", "foot_r")):
+        pa, pb = parts[a], parts[b]
+        assert _solver.body_intersection(pa.vertices, pa.faces.astype(np.int32), pb.vertices,
+                                         pb.faces.astype(np.int32))["intersecting"], (a, b)
+
+
+def test_dress_starts_outside_the_body_with_a_smaller_rest_shape(tmp_path: Path) -> None:
+    scene = build_scene("articulated_dress", tmp_path, 2)
+    bodies = [BodyTrack(b.name, b.faces, b.frames[:1]) for b in scene.bodies]
+
+    m = contact_metrics(scene.positions[None], scene.faces, edge_rest_lengths(scene.face_uv), bodies, np.array([]), 24.0)
+    assert m["inside_max"] == 0 and m["cloth_body_pairs_max"] == 0
+    assert 0.004 < m["gap_min_m"] < 0.01
+    assert m["max_strain"] == pytest.approx(1 / 0.9)  # girth edges start 1/0.9 of their rest length
+
+
+def test_point_triangle_distance_in_every_region() -> None:
+    a, b, c = np.array([[0.0, 0, 0]]), np.array([[1.0, 0, 0]]), np.array([[0.0, 1, 0]])
+    points = np.array([[0.2, 0.2, 0.5], [-1.0, -1.0, 0.0], [2.0, 0.0, 0.0], [0.0, 3.0, 0.0], [0.5, -2.0, 0.0],
+                       [-2.0, 0.5, 0.0], [1.0, 1.0, 0.0]])
+    expected = [0.5, np.sqrt(2.0), 1.0, 2.0, 2.0, 2.0, np.sqrt(0.5)]
+    np.testing.assert_allclose(point_triangle_distance(points, a, b, c)[:, 0], expected)
+
+
+def two_boxes_merged() -> BodyTrack:
+    """Two overlapping unit cubes as one body mesh (x in [-0.5, 0.5] and [0, 1])."""
+    va, fa = box_mesh((1.0, 1.0, 1.0))
+    vb, fb = box_mesh((1.0, 1.0, 1.0), (0.5, 0.0, 0.0))
+    vertices = np.concatenate([va, vb])
+    return BodyTrack("boxes", np.concatenate([fa, fb + len(va)]).astype(np.int32), np.stack([vertices, vertices]))
+
+
+def test_metrics_count_inside_the_union_and_measure_gaps() -> None:
+    # A small cloth: a triangle whose corners are inside the overlap of the two boxes (a parity
+    # test on the merged mesh would say outside), 2 cm above the top, and 3 cm right of the right box.
+    cloth0 = np.array([[0.25, 0.0, 0.0], [0.25, 0.52, 0.0], [1.03, 0.0, 0.0], [1.03, 0.1, 0.2]])
+    faces = np.array([[0, 1, 2], [1, 3, 2]])
+    rest = np.linalg.norm(cloth0[faces[:, [1, 2, 0]]] - cloth0[faces], axis=2)
+    cloth1 = cloth0.copy()
+    cloth1[3] += [0.0, 0.1, 0.0]  # the second frame stretches an edge and moves a vertex at 2.4 m/s
+    m = contact_metrics(np.stack([cloth0, cloth1]), faces, rest, [two_boxes_merged()], np.array([0.5]), fps=24.0)
+    assert m["inside_max"] == 1 and m["per_frame"]["inside"] == [1, 1]
+    assert m["gap_vertices"] == 3
+    assert m["gap_min_m"] == pytest.approx(0.02)
+    assert m["gap_median_m"] == pytest.approx(0.03)
+    assert m["inside_depth_max_m"] == pytest.approx(0.25)  # the inner vertex is 0.25 m from the right box's left face
+    assert m["cloth_body_pairs_max"] > 0  # the triangle with a corner inside crosses the surface
+    assert m["max_speed_m_s"] == pytest.approx(2.4)
+    assert m["max_strain"] > 1.0 and not m["nan"]
+    assert m["s_per_frame_mean"] == 0.5
+
+
+def test_metrics_flag_non_finite_positions() -> None:
+    cloth = np.array([[0.0, 2.0, 0.0], [1.0, 2.0, 0.0], [0.0, 3.0, 0.0]])
+    faces = np.array([[0, 1, 2]])
+    bad = cloth.copy()
+    bad[1, 0] = np.nan
+    m = contact_metrics(np.stack([cloth, bad]), faces, np.ones((1, 3)), [two_boxes_merged()], np.array([0.1]), 24.0)
+    assert m["nan"] and m["first_nonfinite_frame"] == 1
+    assert m["inside_final"] is None and "gap_min_m" not in m
