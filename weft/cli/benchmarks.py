@@ -57,3 +57,13 @@ def gia(
     from bench.gia import main
 
     main(sizes=_sizes(sizes), frames=frames, threads=threads, cases=cases, as_json=as_json)
+
+
+@app.command("contact", context_settings={"allow_extra_args": True, "ignore_unknown_options": True})
+def contact(ctx: typer.Context) -> None:
+    """Contact scenes (drape, sleeve, pinch, thin limb, articulated dress) run by weft and, with
+    --peer blender, by Blender cloth in the same run: s/frame, ratio, inside, gaps, strain and
+    weft's step breakdown. Options as `python -m bench.contact --help`."""
+    from bench.contact import main
+
+    raise typer.Exit(main(list(ctx.args)))

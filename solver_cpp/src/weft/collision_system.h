@@ -57,7 +57,10 @@ class CollisionSystem {
   // the frame, cloth/cloth among self-colliding faces).
   int count_intersections(const Positions& x, const std::vector<KinematicBody>& bodies) const;
 
-  void begin_frame() { frame_ = {}; }
+  void begin_frame() {
+    frame_ = {};
+    constraints_.forget();
+  }
   CollisionTelemetry end_frame(const Positions& x, const std::vector<KinematicBody>& bodies);
   const CollisionSettings& settings() const { return settings_; }
   bool self_collision() const { return detection_.any_self(); }

@@ -22,6 +22,7 @@ void ContactConstraints::constrain(const Positions& x, const Positions& v, doubl
   const Timer timer;
   const int vertex_count = static_cast<int>(x.rows());
   if (released_.size() != static_cast<size_t>(vertex_count)) released_.assign(vertex_count, 0);
+  if (held_.size() != static_cast<size_t>(vertex_count)) held_.assign(vertex_count, 0);
   detection.refit_cloth(x, x, kContactBand);
   // Closest collidable body face within the band, per cloth vertex.
   std::vector<double> best(vertex_count, std::numeric_limits<double>::infinity());
@@ -53,16 +54,21 @@ void ContactConstraints::constrain(const Positions& x, const Positions& v, doubl
     }
   }
   for (int i = 0; i < vertex_count; ++i) {
-    const bool released = released_[i] != 0;
+    const bool released = released_[i] != 0, held = held_[i] != 0;
     released_[i] = 0;
+    held_[i] = 0;
     if (released || !std::isfinite(best[i]) || filter.projection[i] != Mat3::Identity()) continue;
     Contact c = contact[i];
     const double th = props.thickness[i];
     const double target = best[i] < th ? kRepulsionRate * (th - best[i]) / h : (th - best[i]) / h;
     const double vn = (row3(v, i) - c.body_velocity).dot(c.normal);
-    if (vn > target) continue;  // leaving, or approaching slowly enough: no constraint
+    // A contact the last solve held with a pushing impulse stays (resting cloth is pressed by
+    // this step's forces too, which the velocity before the solve does not show); a new one
+    // only when the vertex already approaches faster than the target.
+    if (!held && vn > target) continue;
     c.delta_vn = target - vn;
     filter.constrain_direction(i, c.normal, c.delta_vn);
+    held_[i] = 1;  // cleared by impulses() when the constraint pulled
     contacts_.push_back(c);
   }
   frame.contact_constraints += static_cast<int>(contacts_.size());
@@ -76,6 +82,7 @@ int ContactConstraints::impulses(const VectorX& residual) {
     const double impulse = -c.normal.dot(residual.segment<3>(3 * c.vertex));
     if (impulse < 0.0) {
       released_[c.vertex] = 1;
+      held_[c.vertex] = 0;
       ++pulled;
     }
     c.impulse = std::max(impulse, 0.0);

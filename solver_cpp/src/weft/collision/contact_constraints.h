@@ -12,6 +12,7 @@
 // uses that impulse as the normal impulse.
 #pragma once
 
+#include <algorithm>
 #include <vector>
 
 #include "weft/collision/collision_step.h"
@@ -32,6 +33,12 @@ class ContactConstraints {
   // After the solve: Coulomb friction of this step's contacts on step.v.
   void friction(CollisionStep& step, const ContactProperties& props) const;
   void clear() { contacts_.clear(); }
+  // Drops what the last steps decided (held, released): done at every frame start, so a run
+  // resumed from a cache at a frame boundary continues bitwise as the uninterrupted one.
+  void forget() {
+    std::fill(held_.begin(), held_.end(), 0);
+    std::fill(released_.begin(), released_.end(), 0);
+  }
   bool empty() const { return contacts_.empty(); }
 
  private:
@@ -45,6 +52,7 @@ class ContactConstraints {
   };
   std::vector<Contact> contacts_;
   std::vector<char> released_;  // per cloth vertex: its constraint pulled last step, free this step
+  std::vector<char> held_;      // per cloth vertex: constrained last step with a pushing impulse
 };
 
 }  // namespace weft

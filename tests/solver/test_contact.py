@@ -1,0 +1,112 @@
+"""Contact that scales (issue 12): contact constraints inside the solve hold resting cloth so CCD
+has nothing left to do, articulated characters (closed parts overlapping at joints) are not
+pinches and keep a tight garment outside every part, and the per-frame strain telemetry."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from bench.contact import build_scene
+from scenes.builders import inline_mesh, sheet_shot
+from scenes.collision import box_mesh, drop_shot
+from tests.helpers import make_scene
+from weft import _solver
+from weft.simulate import new_simulation, simulate
+from weft.solver_setup import body_groups, build_setup, collision_switches
+
+
+def run(scene, contact_constraints: bool = True):
+    setup = build_setup(scene, 2)
+    setup.collision.contact_constraints = contact_constraints
+    sim = _solver.Simulation(setup)
+    return sim, [t for _, _, t in simulate(scene, sim)]
+
+
+def table_shot() -> dict:
+    """A 1 m sheet released 1 cm above a 2 m table (a box whose top is at y = 0.25)."""
+    doc = sheet_shot("rest", 12, 12, 1.0, 1.0, plane="xz", origin=(-0.5, 0.26, -0.5), frames=24, substeps=2,
+                     material={"friction": 0.5, "damping": 0.01})
+    vertices, faces = box_mesh((2.0, 0.5, 2.0))
+    doc["bodies"] = [{"name": "table", "mesh": inline_mesh(vertices, faces)}]
+    return doc
+
+
+def test_resting_contact_is_held_without_ccd_repairs():
+    scene = make_scene(table_shot())
+    sim_on, on = run(scene, True)
+    sim_off, off = run(scene, False)
+    # Landing, the approaching cloth is caught by contact constraints inside the solve; resting,
+    # nothing is left for CCD, where the impulse-only stage repairs some pair every frame.
+    assert sum(t.contact_constraints for t in on) > 100
+    assert sum(t.ccd_hits for t in on[-8:]) == 0
+    assert sum(t.ccd_hits for t in off[-8:]) > 0
+    for sim, frames in ((sim_on, on), (sim_off, off)):
+        assert all(t.intersections == 0 for t in frames)
+        assert sim.energies().kinetic < 1e-3  # at rest, not jittering
+        gap = sim.positions[:, 1] - 0.25
+        assert gap.min() > 0.0 and gap.max() <= 0.002 + 1e-9  # on the table, within the thickness
+
+
+def test_contacts_that_pull_are_released():
+    # The sheet drops onto a box smaller than itself: where it drapes over the edges the
+    # hanging cloth pulls the constrained vertices off the top, and those contacts let go.
+    scene = make_scene(drop_shot("box", n=12, frames=20, substeps=2))
+    _, frames = run(scene, True)
+    constrained = sum(t.contact_constraints for t in frames)
+    released = sum(t.released_contacts for t in frames)
+    assert constrained > 0 and 0 < released < constrained
+    assert all(t.intersections == 0 for t in frames)
+
+
+def test_overlapping_parts_of_one_character_are_one_group_and_never_pinch(tmp_path):
+    scene = build_scene("articulated_dress", tmp_path, 6)
+    switches = collision_switches(scene)
+    groups = switches["body_group"]
+    assert len(set(groups)) == 1 and groups[0] >= 0  # all 14 parts overlap into one character
+    assert switches["gia"] == -1  # their overlap does not switch GIA on
+    parts = [(b.frames, b.faces) for b in scene.bodies]
+    sim = new_simulation(scene, 2)
+    for index, sim, t in simulate(scene, sim):
+        assert t.gia_pinched_body_pairs == 0
+        x = sim.positions
+        inside = sum(int(_solver.points_inside_closed_mesh(x, frames[index], faces).sum()) for frames, faces in parts)
+        assert inside == 0, f"frame {index}: {inside} dress vertices inside the body"
+        assert t.intersections == 0
+
+
+def test_explicit_groups_and_separate_bodies(tmp_path):
+    doc = drop_shot("box", n=6, frames=3)
+    a, fa = box_mesh((0.2, 0.2, 0.2), (0.0, -0.5, 0.0))
+    b, fb = box_mesh((0.2, 0.2, 0.2), (0.15, -0.5, 0.0))  # overlaps a
+    c, fc = box_mesh((0.2, 0.2, 0.2), (2.0, -0.5, 0.0))   # apart
+    doc["bodies"] += [{"name": "a", "mesh": inline_mesh(a, fa)}, {"name": "b", "mesh": inline_mesh(b, fb)},
+                      {"name": "c", "mesh": inline_mesh(c, fc)}]
+    scene = make_scene(doc)
+    collide = [True] * 4
+    groups = body_groups(scene, collide)
+    assert groups[1] == groups[2] >= 0 and groups[3] == -1 and groups[0] == -1
+    doc["bodies"][0]["group"] = "rig"
+    doc["bodies"][3]["group"] = "rig"
+    groups = body_groups(make_scene(doc), collide)
+    assert groups[0] == groups[3] >= 0 and groups[0] != groups[1]
+
+
+def test_a_body_that_does_not_collide_switches_nothing_on():
+    doc = sheet_shot("flag", 6, 6, 1.0, 1.0, frames=2)
+    a, fa = box_mesh()
+    doc["bodies"] = [{"name": "prop", "mesh": inline_mesh(a, fa), "collide": False}]
+    switches = collision_switches(make_scene(doc))
+    assert switches["enabled"] is False and switches["piece_self_collide"] == [False]
+    doc["bodies"][0]["collide"] = True
+    assert collision_switches(make_scene(doc))["enabled"] is True
+
+
+def test_max_edge_strain_is_reported_against_the_rest_shape():
+    # Every vertex pinned where it starts, rest shape 10% smaller: strain 1 / 0.9 exactly.
+    doc = sheet_shot("held", 5, 5, 1.0, 1.0, frames=2)
+    x = np.asarray(doc["cloth"][0]["mesh"]["vertices"], dtype=float)
+    centre = x.mean(axis=0)
+    doc["cloth"][0]["rest"] = {"kind": "positions", "positions": (centre + 0.9 * (x - centre)).tolist()}
+    doc["cloth"][0]["pins"] = [{"vertices": list(range(len(x)))}]
+    _, frames = run(make_scene(doc), True)
+    assert abs(frames[-1].max_edge_strain - 1.0 / 0.9) < 1e-9
