@@ -120,6 +120,14 @@ void CollisionSystem::constrain_contacts(const Positions& x, const Positions& v,
                                          ConstraintFilter& filter) {
   constraints_.clear();
   if (!settings_.contact_constraints || !detection_.any_body()) return;
+  // While the state may be in intersection (GIA due) or two bodies pinch the cloth, GIA's
+  // membranes, recovery and grip decide and CCD is off in places: a constraint holding cloth
+  // against a body there (and its friction) could lock a tangle. The impulses take over until
+  // the state is clean again.
+  if ((gia_ && gia_due_) || (pinch_ && pinch_->active_pairs() > 0)) {
+    constraints_.forget();
+    return;
+  }
   body_positions(bodies, alpha0, alpha1);
   constraints_.constrain(x, v, h, step_, detection_, props_, filter, frame_);
 }

@@ -3,13 +3,16 @@
 // respect resting contact and CCD is only the last guard.
 //
 // Before the solve, every free cloth vertex within two thicknesses of a collidable body face
-// whose normal velocity relative to the face is below a target gets that normal velocity
-// prescribed: at or inside the thickness a push back out of kRepulsionRate of the missing
-// separation per step, beyond it the speed that ends the step at the thickness. After the solve
+// (the closest) gets its normal velocity relative to the face prescribed when it approaches
+// faster than a target, or when the last solve held it with a pushing impulse (resting cloth is
+// pressed by forces the velocity before the solve does not show): at or inside the thickness
+// the target is a push back out of kRepulsionRate of the missing separation per step, beyond it
+// the speed that ends the step at the thickness. After the solve
 // the residual gives each constraint's normal impulse; a constraint that pulled the cloth
 // towards the body (negative impulse: the cloth wants to leave) is released for the next step,
 // so cloth lifts off freely instead of alternating between held and free. Coulomb friction
-// uses that impulse as the normal impulse.
+// uses that impulse as the normal impulse. The collision system uses them only while the state
+// is clean: while GIA or a pinch is at work, the impulses take over (collision_system.cpp).
 #pragma once
 
 #include <algorithm>
