@@ -172,6 +172,11 @@ class Environment(StrictModel):
 class SolverSettings(StrictModel):
     cg_tolerance: PositiveFloat = Field(1e-5, lt=1.0, description="Relative residual at which CG stops.")
     cg_max_iterations: int = Field(500, ge=1, le=100_000)
+    max_substep_halvings: int = Field(
+        2, ge=0, le=6,
+        description=("Adaptive substepping: a substep whose collision stage leaves pairs unresolved is redone as two "
+                     "halves, at most this many halvings deep (0: never)."),
+    )
     matrix_precision: Literal["float64", "float32"] = Field(
         "float32", description="Value type of the fast path's block matrix (the reference path is always float64)."
     )

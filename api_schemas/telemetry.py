@@ -23,7 +23,7 @@ class FrameTelemetry(BaseModel):
     total_seconds: float = Field(description="wall seconds for the whole frame, cache write excluded")
     cg_iterations: int = Field(description="CG iterations summed over the frame's substeps")
     final_residual: float = Field(description="relative residual of the last substep's solve")
-    substeps: int = Field(description="implicit steps taken in the frame")
+    substeps: int = Field(description="implicit steps taken in the frame (more than asked when halved)")
     unconverged_substeps: int = Field(description="substeps whose CG stopped at the iteration cap")
     kinetic_energy: float = Field(description="kinetic energy at frame end, J")
     potential_energy: float = Field(description="gravitational plus elastic energy at frame end, J")
@@ -70,6 +70,8 @@ class FrameTelemetry(BaseModel):
         0, description="contact constraints released after the solve (the cloth pulled away), summed over substeps")
     max_edge_strain: float = Field(
         0.0, description="longest cloth edge over its rest length at frame end (1: rest; 1.5: stretched by half)")
+    subdivided_substeps: int = Field(
+        0, description="substeps redone as two halves because their collision stage left pairs unresolved")
 
 
 _DTYPES = {int: "i4", float: "f8"}

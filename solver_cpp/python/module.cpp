@@ -40,6 +40,7 @@ PYBIND11_MODULE(_solver, m) {
       .def(py::init<>())
       .def_readwrite("cg_tolerance", &SolverSettings::cg_tolerance)
       .def_readwrite("cg_max_iterations", &SolverSettings::cg_max_iterations)
+      .def_readwrite("max_substep_halvings", &SolverSettings::max_substep_halvings)
       .def_readwrite("threads", &SolverSettings::threads)
       .def_readwrite("linear_system", &SolverSettings::linear_system)
       .def_readwrite("matrix_precision", &SolverSettings::matrix_precision);
@@ -77,7 +78,8 @@ PYBIND11_MODULE(_solver, m) {
       .def_readonly("unconverged_substeps", &FrameTelemetry::unconverged_substeps)
       .def_readonly("kinetic_energy", &FrameTelemetry::kinetic_energy)
       .def_readonly("potential_energy", &FrameTelemetry::potential_energy)
-      .def_readonly("max_edge_strain", &FrameTelemetry::max_edge_strain);
+      .def_readonly("max_edge_strain", &FrameTelemetry::max_edge_strain)
+      .def_readonly("subdivided_substeps", &FrameTelemetry::subdivided_substeps);
 
   py::class_<Energies>(m, "Energies")
       .def_readonly("kinetic", &Energies::kinetic)

@@ -101,6 +101,10 @@ CollisionSystem::CollisionSystem(const Faces& cloth_faces, const Positions& x, c
     if (pinch_->tracker().pairs().empty()) pinch_.reset();  // one articulated character: no pair to track
   }
   filter_ = std::make_unique<Filter>(*this);
+  // A shot (or a resumed run) that starts in intersection starts with the impulses alone, as
+  // after a frame whose exact count was not zero.
+  if (gia_ && settings_.contact_constraints && settings_.count_intersections)
+    contacts_aside_ = count_intersections(x, bodies) > 0;
 }
 
 CollisionSystem::~CollisionSystem() = default;
@@ -120,11 +124,12 @@ void CollisionSystem::constrain_contacts(const Positions& x, const Positions& v,
                                          ConstraintFilter& filter) {
   constraints_.clear();
   if (!settings_.contact_constraints || !detection_.any_body()) return;
-  // While the state may be in intersection (GIA due) or two bodies pinch the cloth, GIA's
-  // membranes, recovery and grip decide and CCD is off in places: a constraint holding cloth
-  // against a body there (and its friction) could lock a tangle. The impulses take over until
-  // the state is clean again.
-  if ((gia_ && gia_due_) || (pinch_ && pinch_->active_pairs() > 0)) {
+  // While the cloth is in intersection (the last analysis or frame-end count found some, a step
+  // left pairs unresolved or ran pairs without CCD) or two bodies pinch it, GIA's membranes,
+  // recovery and grip decide and CCD is off in places: a constraint holding cloth against a
+  // body there (and its friction) could lock a tangle. The impulses take over until the state
+  // is clean again.
+  if (contacts_aside_ || (pinch_ && pinch_->active_pairs() > 0)) {
     constraints_.forget();
     return;
   }
@@ -176,7 +181,9 @@ void CollisionSystem::respond(const Positions& x, Positions& v, double h, const 
       std::vector<int> hits;
       redetect(hits);
       if (!hits.empty())
-        ImpactZones().resolve(step_, props_, hits, settings_.zone_iterations,
+        ImpactZones().resolve(step_, props_, hits,
+                              zone_pass_limit_ > 0 ? std::min(zone_pass_limit_, settings_.zone_iterations)
+                                                   : settings_.zone_iterations,
                               [this](std::vector<int>& found) { redetect(found); }, frame_);
     }
   }
@@ -184,7 +191,8 @@ void CollisionSystem::respond(const Positions& x, Positions& v, double h, const 
     return std::any_of(list.begin(), list.end(), [](const FeaturePair& p) { return !p.ccd; });
   };
   const bool ccd_skipped = !settings_.ccd || skips_ccd(step_.proximity_pairs) || skips_ccd(step_.pairs);
-  gia_due_ = tangled || ccd_skipped || frame_.unresolved > unresolved_before || (pinch_ && pinch_->active_pairs() > 0);
+  contacts_aside_ = tangled || ccd_skipped || frame_.unresolved > unresolved_before;
+  gia_due_ = contacts_aside_ || (pinch_ && pinch_->active_pairs() > 0);
   step_.end();
 }
 
@@ -203,6 +211,7 @@ CollisionTelemetry CollisionSystem::end_frame(const Positions& x, const std::vec
     const Timer timer;
     frame_.intersections = count_intersections(x, bodies);
     if (frame_.intersections > 0) gia_due_ = true;
+    contacts_aside_ = frame_.intersections > 0;  // what a run resumed at this frame sees too
     frame_.intersection_seconds += timer.seconds();
   }
   return frame_;

@@ -57,6 +57,11 @@ class CollisionSystem {
   // the frame, cloth/cloth among self-colliding faces).
   int count_intersections(const Positions& x, const std::vector<KinematicBody>& bodies) const;
 
+  // Colliding pairs left unresolved so far this frame; a retried step's are taken back.
+  int unresolved() const { return frame_.unresolved; }
+  void rewind_unresolved(int count) { frame_.unresolved = count; }
+  // Impact-zone passes allowed per step (0: the settings' budget).
+  void limit_zone_passes(int passes) { zone_pass_limit_ = passes; }
   void begin_frame() {
     frame_ = {};
     constraints_.forget();
@@ -89,6 +94,8 @@ class CollisionSystem {
   ClothUntangling untangle_;                   // cloth/cloth GIA (with GIA on and self-collision)
   std::unique_ptr<Filter> filter_;
   CcdResponse ccd_;
+  bool contacts_aside_ = false;  // contact constraints left to the impulses (constrain_contacts)
+  int zone_pass_limit_ = 0;
   ContactConstraints constraints_;
   CollisionStep step_;
   CollisionTelemetry frame_;

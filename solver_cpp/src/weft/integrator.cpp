@@ -157,6 +157,42 @@ Simulation::StepTimings Simulation::step(double time, double h, double alpha_end
   return t;
 }
 
+void Simulation::substep(double time, double h, double alpha0, double alpha1, int depth, FrameTelemetry& telemetry) {
+  const bool can_halve = collisions_ && depth < settings_.max_substep_halvings;
+  Positions x0, v0;
+  VectorX dv0;
+  int unresolved_before = 0;
+  if (can_halve) {
+    x0 = x_;
+    v0 = v_;
+    dv0 = dv_;
+    unresolved_before = collisions_->unresolved();
+    collisions_->limit_zone_passes(std::max(1, collisions_->settings().zone_iterations / 4));
+  }
+  step_alpha_start_ = alpha0;
+  const StepTimings t = step(time, h, alpha1);
+  if (can_halve) collisions_->limit_zone_passes(0);
+  telemetry.build_seconds += t.build;
+  telemetry.solve_seconds += t.solve;
+  telemetry.cg_iterations += t.iterations;
+  if (can_halve && collisions_->unresolved() > unresolved_before) {
+    // The fail-safe ran out: redo the step as two halves from where it started (the attempt's
+    // cost stays in the timings; its unresolved pairs do not count, the halves' do).
+    collisions_->rewind_unresolved(unresolved_before);
+    x_ = x0;
+    v_ = v0;
+    dv_ = dv0;
+    ++telemetry.subdivided_substeps;
+    const double mid = 0.5 * (alpha0 + alpha1);
+    substep(time, 0.5 * h, alpha0, mid, depth + 1, telemetry);
+    substep(time + 0.5 * h, 0.5 * h, mid, alpha1, depth + 1, telemetry);
+    return;
+  }
+  telemetry.final_residual = t.residual;
+  telemetry.unconverged_substeps += t.converged ? 0 : 1;
+  ++telemetry.substeps;
+}
+
 FrameTelemetry Simulation::advance_frame(double frame_start_time, double frame_duration, int substeps) {
   if (substeps < 1) throw std::invalid_argument("substeps must be at least 1");
   if (!(frame_duration > 0.0)) throw std::invalid_argument("frame duration must be positive");
@@ -164,16 +200,9 @@ FrameTelemetry Simulation::advance_frame(double frame_start_time, double frame_d
   const Timer frame_timer;
   const double h = frame_duration / substeps;
   if (collisions_) collisions_->begin_frame();
-  for (int s = 0; s < substeps; ++s) {
-    step_alpha_start_ = static_cast<double>(s) / substeps;
-    const StepTimings t = step(frame_start_time + s * h, h, static_cast<double>(s + 1) / substeps);
-    telemetry.build_seconds += t.build;
-    telemetry.solve_seconds += t.solve;
-    telemetry.cg_iterations += t.iterations;
-    telemetry.final_residual = t.residual;
-    telemetry.unconverged_substeps += t.converged ? 0 : 1;
-  }
-  telemetry.substeps = substeps;
+  for (int s = 0; s < substeps; ++s)
+    substep(frame_start_time + s * h, h, static_cast<double>(s) / substeps, static_cast<double>(s + 1) / substeps, 0,
+            telemetry);
   if (collisions_) {
     telemetry.collision = collisions_->end_frame(x_, bodies_);
     telemetry.collision_seconds = telemetry.collision.total_seconds();

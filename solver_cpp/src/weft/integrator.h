@@ -21,6 +21,11 @@ struct SolverSettings {
   int threads = 1;
   LinearSystemKind linear_system = LinearSystemKind::kFast;  // fast | reference (linear_system_path.h)
   MatrixPrecision matrix_precision = MatrixPrecision::kFloat32;  // fast path's matrix values
+  // Adaptive substepping: a substep whose collision stage leaves colliding pairs unresolved is
+  // redone as two halves, at most this many halvings deep (0: never). Before the deepest level
+  // the impact-zone fail-safe gets a quarter of its pass budget, so a hard step is split
+  // instead of spinning.
+  int max_substep_halvings = 2;
 };
 
 // Everything needed to build a simulation, as flat arrays (cloth pieces concatenated).
@@ -49,7 +54,8 @@ struct FrameTelemetry {
   double total_seconds = 0.0;
   int cg_iterations = 0;
   double final_residual = 0.0;  // relative residual of the last substep's solve
-  int substeps = 0;
+  int substeps = 0;               // implicit steps taken (more than asked when halved)
+  int subdivided_substeps = 0;    // steps redone as two halves (adaptive substepping)
   int unconverged_substeps = 0;
   double kinetic_energy = 0.0;
   double potential_energy = 0.0;  // gravity + elastic
@@ -108,6 +114,9 @@ class Simulation {
     double collision = 0.0;
   };
   StepTimings step(double time, double h, double alpha_end);
+  // One substep from frame fraction alpha0 to alpha1, halved while its collision stage leaves
+  // pairs unresolved and depth < max_substep_halvings; adds to the frame's telemetry.
+  void substep(double time, double h, double alpha0, double alpha1, int depth, FrameTelemetry& telemetry);
   void build_filter(double h, double alpha_end);
 
   SolverSettings settings_;
