@@ -70,6 +70,8 @@ class FrameTelemetry(BaseModel):
         0, description="contact constraints released after the solve (the cloth pulled away), summed over substeps")
     max_edge_strain: float = Field(
         0.0, description="longest cloth edge over its rest length at frame end (1: rest; 1.5: stretched by half)")
+    strain_limited_edges: int = Field(
+        0, description="edge corrections of the strain limit before CCD, summed over passes and substeps")
     subdivided_substeps: int = Field(
         0, description="substeps redone as two halves because their collision stage left pairs unresolved")
 

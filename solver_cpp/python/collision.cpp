@@ -107,7 +107,8 @@ void bind_collision(py::module_& m) {
       .def_readwrite("gia", &CollisionSettings::gia)
       .def_readwrite("body_pinch", &CollisionSettings::body_pinch)
       .def_readwrite("self_culling", &CollisionSettings::self_culling)
-      .def_readwrite("body_group", &CollisionSettings::body_group);
+      .def_readwrite("body_group", &CollisionSettings::body_group)
+      .def_readwrite("max_strain", &CollisionSettings::max_strain);
 
   auto setup = py::reinterpret_borrow<py::class_<SimulationSetup>>(m.attr("SimulationSetup"));
   setup.def_readwrite("collision", &SimulationSetup::collision);
@@ -129,6 +130,8 @@ void bind_collision(py::module_& m) {
       .def_property_readonly("contact_constraints",
                              [](const FrameTelemetry& t) { return t.collision.contact_constraints; })
       .def_property_readonly("released_contacts", [](const FrameTelemetry& t) { return t.collision.released_contacts; })
+      .def_property_readonly("strain_limited_edges",
+                             [](const FrameTelemetry& t) { return t.collision.strain_limited_edges; })
       .def_property_readonly("ccd_candidates", [](const FrameTelemetry& t) { return t.collision.ccd_candidates; })
       .def_property_readonly("ccd_hits", [](const FrameTelemetry& t) { return t.collision.ccd_hits; })
       .def_property_readonly("impact_zones", [](const FrameTelemetry& t) { return t.collision.impact_zones; })

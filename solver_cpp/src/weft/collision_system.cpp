@@ -71,7 +71,8 @@ class CollisionSystem::Filter : public ContactFilter {
 
 CollisionSystem::CollisionSystem(const Faces& cloth_faces, const Positions& x, const std::vector<double>& vertex_mass,
                                  const std::vector<int>& pinned_vertices, const std::vector<KinematicBody>& bodies,
-                                 CollisionSettings settings, int threads)
+                                 CollisionSettings settings, int threads,
+                                 const std::vector<std::array<double, 3>>& face_rest_lengths)
     : settings_(checked(std::move(settings), static_cast<int>(cloth_faces.rows()), bodies.size())),
       threads_(std::max(threads, 1)),
       props_(ContactProperties::from_faces(cloth_faces, settings_.face_thickness, settings_.face_friction, vertex_mass,
@@ -101,6 +102,7 @@ CollisionSystem::CollisionSystem(const Faces& cloth_faces, const Positions& x, c
     if (pinch_->tracker().pairs().empty()) pinch_.reset();  // one articulated character: no pair to track
   }
   filter_ = std::make_unique<Filter>(*this);
+  if (!face_rest_lengths.empty()) strain_limit_ = StrainLimit(cloth_faces, face_rest_lengths, settings_.max_strain);
   // A shot (or a resumed run) that starts in intersection starts with the impulses alone, as
   // after a frame whose exact count was not zero.
   if (gia_ && settings_.contact_constraints && settings_.count_intersections)
@@ -169,6 +171,11 @@ void CollisionSystem::respond(const Positions& x, Positions& v, double h, const 
   }
   detection_.collect(step_, *filter_, frame_, false);
   ProximityResponse().apply(step_, props_, frame_);
+  if (strain_limit_.enabled()) {
+    const Timer timer;
+    frame_.strain_limited_edges += strain_limit_.apply(step_, props_);
+    frame_.response_seconds += timer.seconds();
+  }
   step_.pairs.clear();
   if (settings_.ccd) {
     int& iteration = step_.ccd_iteration;

@@ -23,6 +23,7 @@
 #include "weft/collision/collision_step.h"
 #include "weft/collision/collision_types.h"
 #include "weft/collision/contact_constraints.h"
+#include "weft/collision/strain_limit.h"
 #include "weft/collision/contact_detection.h"
 #include "weft/gia/body_pinch.h"
 #include "weft/gia/cloth_untangling.h"
@@ -37,7 +38,8 @@ class CollisionSystem {
  public:
   CollisionSystem(const Faces& cloth_faces, const Positions& x, const std::vector<double>& vertex_mass,
                   const std::vector<int>& pinned_vertices, const std::vector<KinematicBody>& bodies,
-                  CollisionSettings settings, int threads);
+                  CollisionSettings settings, int threads,
+                  const std::vector<std::array<double, 3>>& face_rest_lengths = {});
   ~CollisionSystem();
 
   // Adjusts v so that x + h v is collision-free. Bodies move from alpha0 to alpha1 of the frame.
@@ -96,6 +98,7 @@ class CollisionSystem {
   CcdResponse ccd_;
   bool contacts_aside_ = false;  // contact constraints left to the impulses (constrain_contacts)
   int zone_pass_limit_ = 0;
+  StrainLimit strain_limit_;  // with settings_.max_strain and the cloth's rest lengths
   ContactConstraints constraints_;
   CollisionStep step_;
   CollisionTelemetry frame_;

@@ -9,6 +9,7 @@ void CollisionTelemetry::add(const CollisionTelemetry& o) {
   broad_phase_pairs += o.broad_phase_pairs;
   contact_constraints += o.contact_constraints;
   released_contacts += o.released_contacts;
+  strain_limited_edges += o.strain_limited_edges;
   proximity_seconds += o.proximity_seconds;
   ccd_seconds += o.ccd_seconds;
   response_seconds += o.response_seconds;

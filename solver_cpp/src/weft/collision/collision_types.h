@@ -36,6 +36,9 @@ struct CollisionSettings {
   // Normal-cone culling of self-collision pairs inside patches that cannot touch themselves
   // (self_culling.h). Off only to compare (tests, benchmarks).
   bool self_culling = true;
+  // Strain limiting before CCD (strain_limit.h): no step stretches an edge beyond this times its
+  // rest length (<= 1: off).
+  double max_strain = 1.4;
 };
 
 struct CollisionTelemetry {
@@ -48,6 +51,7 @@ struct CollisionTelemetry {
   int proximity_pairs = 0;
   int contact_constraints = 0;  // cloth/body contacts constrained in the solve, summed over substeps
   int released_contacts = 0;    // of those, released after the solve (the cloth pulled away)
+  int strain_limited_edges = 0;  // edge corrections of the strain limit, summed over passes and substeps
   int ccd_candidates = 0;  // feature pairs a CCD pass examined (incremental passes: those with a moved vertex)
   int ccd_hits = 0;
   int impact_zones = 0;

@@ -97,16 +97,23 @@ ClothMesh build_cloth_mesh(int vertex_count, const Faces& faces, const FaceUVs& 
   return mesh;
 }
 
-double max_edge_strain(const ClothMesh& mesh, const Positions& x) {
-  double strain = 0.0;
+std::vector<std::array<double, 3>> face_rest_edge_lengths(const ClothMesh& mesh) {
+  std::vector<std::array<double, 3>> out(mesh.faces.rows());
   for (Eigen::Index f = 0; f < mesh.faces.rows(); ++f) {
     const Mat2 dm = mesh.rest_dm_inverse[f].inverse();  // columns: rest edges v0->v1, v0->v2 in (u,v)
-    const double rest[3] = {dm.col(0).norm(), (dm.col(1) - dm.col(0)).norm(), dm.col(1).norm()};
+    out[f] = {dm.col(0).norm(), (dm.col(1) - dm.col(0)).norm(), dm.col(1).norm()};
+  }
+  return out;
+}
+
+double max_edge_strain(const ClothMesh& mesh, const Positions& x) {
+  const std::vector<std::array<double, 3>> rest = face_rest_edge_lengths(mesh);
+  double strain = 0.0;
+  for (Eigen::Index f = 0; f < mesh.faces.rows(); ++f)
     for (int c = 0; c < 3; ++c) {
       const double length = (row3(x, mesh.faces(f, (c + 1) % 3)) - row3(x, mesh.faces(f, c))).norm();
-      if (rest[c] > 0.0) strain = std::max(strain, length / rest[c]);
+      if (rest[f][c] > 0.0) strain = std::max(strain, length / rest[f][c]);
     }
-  }
   return strain;
 }
 

@@ -48,6 +48,9 @@ using FaceUVs = Eigen::Matrix<double, Eigen::Dynamic, 6, Eigen::RowMajor>;
 ClothMesh build_cloth_mesh(int vertex_count, const Faces& faces, const FaceUVs& face_uv,
                            const Positions& rest_positions);
 
+// Per triangle, the rest lengths of its edges (v0,v1), (v1,v2), (v2,v0), from its rest frame.
+std::vector<std::array<double, 3>> face_rest_edge_lengths(const ClothMesh& mesh);
+
 // Largest ratio of an edge's length in x to its rest length (from the triangles' rest frames),
 // over every edge of every triangle: 1 at rest, 1.5 for an edge stretched by half.
 double max_edge_strain(const ClothMesh& mesh, const Positions& x);

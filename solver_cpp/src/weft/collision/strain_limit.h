@@ -1,0 +1,36 @@
+// Strain limiting (Provot 1995, "Deformation constraints in a mass-spring model"; Bridson,
+// Fedkiw & Anderson 2002): the velocity changes of the collision stage act per vertex (friction
+// holding a vertex on a limb that swings at metres per second, repulsion, impulses), so the
+// implicit solve's elasticity only sees them a step later. Before CCD, every cloth edge that the
+// step would stretch beyond `max_strain` times its rest length (and beyond its length at the
+// step's start, so a strain a pin or body already forces is kept, not yanked back) is
+// shortened by moving its ends' end-of-step positions towards each other, weighted by inverse
+// mass; Gauss-Seidel over the edges in a fixed order, a few passes. CCD runs after it, so the
+// step stays collision-free.
+#pragma once
+
+#include <array>
+#include <vector>
+
+#include "weft/collision/collision_step.h"
+
+namespace weft {
+
+class StrainLimit {
+ public:
+  StrainLimit() = default;
+  // The unique edges of `faces` with rest lengths from the triangles' rest frames (per face, the
+  // rest lengths of edges (0,1), (1,2), (2,0)); max_strain <= 1 switches the limit off.
+  StrainLimit(const Faces& faces, const std::vector<std::array<double, 3>>& face_rest_lengths, double max_strain,
+              int passes = 4);
+  // Adjusts step.v (and step.x_end) of free vertices; returns the number of edge corrections.
+  int apply(CollisionStep& step, const ContactProperties& props) const;
+  bool enabled() const { return !edges_.empty(); }
+
+ private:
+  std::vector<std::array<int, 2>> edges_;
+  std::vector<double> limit_;  // max_strain x rest length, per edge
+  int passes_ = 4;
+};
+
+}  // namespace weft
