@@ -1,0 +1,64 @@
+// Strain limit before CCD: a step may not stretch an edge beyond max_strain times its rest
+// length (nor beyond its length at the step's start); ends move by inverse mass.
+#include <gtest/gtest.h>
+
+#include "weft/collision/strain_limit.h"
+
+namespace weft {
+namespace {
+
+// One triangle (0, 1, 2) with rest edges of 1 m; vertex 1 flies away along x.
+struct Triangle {
+  Faces faces{1, 3};
+  Positions x{3, 3};
+  Positions v = Positions::Zero(3, 3);
+  ContactProperties props;
+  CollisionStep step;
+  Triangle() {
+    faces << 0, 1, 2;
+    x << 0, 0, 0, 1, 0, 0, 0.5, 0.8660254037844386, 0;
+    props.inverse_mass = {1.0, 1.0, 1.0};
+    props.thickness.assign(3, 0.002);
+    props.friction.assign(3, 0.0);
+  }
+  StrainLimit limit(double max_strain) const { return StrainLimit(faces, {{1.0, 1.0, 1.0}}, max_strain, 50); }
+};
+
+TEST(StrainLimit, AStepCannotStretchAnEdgeBeyondTheLimit) {
+  Triangle t;
+  t.v.row(1) << 100.0, 0.0, 0.0;  // 1 m in a 0.01 s step: edge (0, 1) would double
+  t.step.begin(t.x, t.v, 0.01);
+  EXPECT_GT(t.limit(1.4).apply(t.step, t.props), 0);
+  for (int c = 0; c < 3; ++c) {
+    const int a = t.faces(0, c), b = t.faces(0, (c + 1) % 3);
+    EXPECT_LE((t.step.x_end.row(a) - t.step.x_end.row(b)).norm(), 1.4 + 1e-9);
+  }
+  // Momentum kept (equal masses, internal corrections), and x_end stays x + h v.
+  EXPECT_NEAR(t.v.colwise().sum()(0), 100.0, 1e-9);
+  EXPECT_LT((t.step.x_end - (t.x + 0.01 * t.v)).cwiseAbs().maxCoeff(), 1e-12);
+}
+
+TEST(StrainLimit, APinnedEndStaysAndAForcedStretchIsKept) {
+  Triangle t;
+  t.props.inverse_mass = {0.0, 1.0, 0.0};  // 0 and 2 pinned
+  t.v.row(1) << 100.0, 0.0, 0.0;
+  t.step.begin(t.x, t.v, 0.01);
+  t.limit(1.4).apply(t.step, t.props);
+  EXPECT_EQ(t.v.row(0).norm(), 0.0);
+  EXPECT_EQ(t.v.row(2).norm(), 0.0);
+  EXPECT_LE((t.step.x_end.row(1) - t.step.x_end.row(0)).norm(), 1.4 + 1e-9);
+  // Already stretched to 2 m at the step's start (by a pin, say) and not stretched further: kept.
+  Triangle forced;
+  forced.x.row(1) << 2.0, 0.0, 0.0;
+  forced.step.begin(forced.x, forced.v, 0.01);
+  EXPECT_EQ(forced.limit(1.4).apply(forced.step, forced.props), 0);
+  // Off below a strain of 1.
+  Triangle off;
+  off.v.row(1) << 100.0, 0.0, 0.0;
+  off.step.begin(off.x, off.v, 0.01);
+  const StrainLimit none = off.limit(1.0);
+  EXPECT_FALSE(none.enabled());
+}
+
+}  // namespace
+}  // namespace weft
