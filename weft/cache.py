@@ -267,15 +267,17 @@ def describe_cache(path: str | Path) -> dict[str, Any]:
             summary["cg_iterations_per_frame"] = float(np.mean(simulated["cg_iterations"]))
             summary["unconverged_substeps"] = int(np.sum(simulated["unconverged_substeps"]))
             names = simulated.dtype.names
-            # What each collision feature costs (columns of older caches may be missing).
+            # What each collision feature costs, for shots that use collisions (columns of older
+            # caches may be missing).
+            collides = bool(np.any(simulated["collision_seconds"] > 0.0))
             parts = {key: float(np.mean(simulated[f"collision_{key}_seconds"]))
                      for key in ("broad_phase", "proximity", "ccd", "response") if f"collision_{key}_seconds" in names}
-            if parts:
+            if parts and collides:
                 summary["mean_collision_seconds_per_frame"] = parts
             counts = {key: float(np.mean(simulated[key])) for key in (
                 "broad_phase_pairs", "ccd_candidates", "ccd_hits", "contact_constraints", "proximity_pairs",
                 "impact_zones") if key in names}
-            if counts:
+            if counts and collides:
                 summary["mean_collision_counts_per_frame"] = counts
             if "max_edge_strain" in names:
                 summary["max_edge_strain"] = float(np.max(simulated["max_edge_strain"]))

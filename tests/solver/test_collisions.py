@@ -127,6 +127,12 @@ def test_collision_telemetry_reaches_the_cache(tmp_path):
     # Falling flat, far above the box: no candidate at all (a flat sheet cannot touch itself:
     # normal-cone culling); resting on it at the end: candidates.
     assert simulated["ccd_candidates"][0] == 0 and simulated["ccd_candidates"][-1] > 0
+    # weft info shows what each collision part cost and the counts.
+    from weft.cache import describe_cache
+
+    info = describe_cache(tmp_path / "drop.h5")
+    assert info["mean_collision_seconds_per_frame"]["broad_phase"] > 0.0
+    assert info["mean_collision_counts_per_frame"]["broad_phase_pairs"] > 0.0
     parts = sum(simulated[k] for k in ("collision_broad_phase_seconds", "collision_proximity_seconds",
                                        "collision_ccd_seconds", "collision_response_seconds"))
     assert np.all(parts <= simulated["collision_seconds"] + 1e-12)

@@ -51,8 +51,8 @@ def test_rows_per_frame_and_info(tmp_path) -> None:
     summary = json.loads(info.stdout)
     assert summary["frames_written"] == 10 and summary["status"] == "complete"
     assert summary["mean_seconds_per_frame"]["solve"] > 0
-    # A flag without collisions: no collision cost, and its strain stays near rest.
-    assert summary["mean_collision_seconds_per_frame"]["ccd"] == 0.0
+    # A flag without collisions: no collision figures at all, and its strain stays near rest.
+    assert "mean_collision_seconds_per_frame" not in summary and "mean_collision_counts_per_frame" not in summary
     assert 1.0 <= summary["max_edge_strain"] < 1.5
 
 
