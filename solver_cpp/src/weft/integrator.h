@@ -21,6 +21,7 @@ struct SolverSettings {
   int threads = 1;
   LinearSystemKind linear_system = LinearSystemKind::kFast;  // fast | reference (linear_system_path.h)
   MatrixPrecision matrix_precision = MatrixPrecision::kFloat32;  // fast path's matrix values
+  Preconditioner preconditioner = Preconditioner::kAuto;  // fast path's CG preconditioner (multigrid.h)
 };
 
 // Everything needed to build a simulation, as flat arrays (cloth pieces concatenated).

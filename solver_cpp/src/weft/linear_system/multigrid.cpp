@@ -171,6 +171,9 @@ void BlockRows::multiply(const VectorX& x, VectorX& y, int threads) const {
 SmoothedAggregation::SmoothedAggregation(const std::vector<int>& row_start, const std::vector<int>& columns,
                                          const Graph& strength, const MultigridOptions& options)
     : options_(options) {
+  if (getenv("MGCOARSE")) options_.coarse_rows = atoi(getenv("MGCOARSE"));  // TUNING
+  if (getenv("MGDEG")) options_.smoother_degree = atoi(getenv("MGDEG"));  // TUNING
+  if (getenv("MGLANCZOS")) options_.lanczos_steps = atoi(getenv("MGLANCZOS"));  // TUNING
   if (options_.smoother_degree < 1) throw std::invalid_argument("multigrid smoother degree must be at least 1");
   levels_.emplace_back();
   {

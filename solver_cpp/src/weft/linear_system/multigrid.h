@@ -48,7 +48,7 @@ struct BlockRows {
 };
 
 struct MultigridOptions {
-  int coarse_rows = 128;        // stop coarsening at or below this many 3x3 rows
+  int coarse_rows = 64;         // stop coarsening at or below this many 3x3 rows
   int max_levels = 10;
   int smoother_degree = 2;      // Chebyshev degree of the pre- and of the post-smoothing
   int lanczos_steps = 12;       // for rho(D^-1 A) per level and solve
