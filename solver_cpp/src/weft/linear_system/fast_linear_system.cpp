@@ -223,27 +223,10 @@ PcgStats FastLinearSystem<Scalar>::solve_with(const ConstraintFilter& filter, Ve
   };
   PcgStats stats;
   ++solves_;
-  last_multigrid_ = uses_multigrid(preconditioner);
+  last_multigrid_ = uses_multigrid(preconditioner) && prepare_multigrid(threads);
   if (last_multigrid_) {
-    Timer timer;
-    if (!multigrid_) {
-      // Strength of connection: the triangle edges (stretch and shear); couplings through a
-      // hinge alone (bending) are weak. Pattern-only, so a resumed run aggregates the same.
-      std::vector<std::pair<int, int>> edges;
-      edges.reserve(3 * static_cast<size_t>(mesh_.faces.rows()));
-      for (Eigen::Index f = 0; f < mesh_.faces.rows(); ++f)
-        for (int c = 0; c < 3; ++c)
-          edges.emplace_back(new_of_old_[mesh_.faces(f, c)], new_of_old_[mesh_.faces(f, (c + 1) % 3)]);
-      multigrid_ = std::make_unique<SmoothedAggregation>(
-          SmoothedAggregation::from_pattern(matrix_, graph_from_edges(n, edges)));
-      multigrid_structure_seconds_ = timer.seconds();
-      timer.restart();
-    }
-    multigrid_->update(matrix_, permuted_filter_, threads);
-    stats.preconditioner_setup_seconds = timer.seconds();
-    multigrid_setup_seconds_ += stats.preconditioner_setup_seconds;
+    const double setup = multigrid_last_setup_seconds_;
     auto cycle = [this, threads](const VectorX& r, VectorX& z) { multigrid_->apply(r, z, threads); };
-    const double setup = stats.preconditioner_setup_seconds;
     stats = prefiltered_pcg(apply, diagonal_, permuted_filter_, rhs_, permuted_dv_, pcg, threads, cycle);
     stats.preconditioner_setup_seconds = setup;
   } else {
@@ -252,6 +235,38 @@ PcgStats FastLinearSystem<Scalar>::solve_with(const ConstraintFilter& filter, Ve
 #pragma omp parallel for schedule(static) num_threads(threads)
   for (int r = 0; r < n; ++r) dv.segment<3>(3 * order_[r]) = permuted_dv_.segment<3>(3 * r);
   return stats;
+}
+
+template <class Scalar>
+bool FastLinearSystem<Scalar>::prepare_multigrid(int threads) {
+  if (multigrid_unusable_) return false;
+  Timer timer;
+  if (!multigrid_) {
+    // Strength of connection: the triangle edges (stretch and shear); couplings through a
+    // hinge alone (bending) are weak. Pattern-only, so a resumed run aggregates the same.
+    std::vector<std::pair<int, int>> edges;
+    edges.reserve(3 * static_cast<size_t>(mesh_.faces.rows()));
+    for (Eigen::Index f = 0; f < mesh_.faces.rows(); ++f)
+      for (int c = 0; c < 3; ++c)
+        edges.emplace_back(new_of_old_[mesh_.faces(f, c)], new_of_old_[mesh_.faces(f, (c + 1) % 3)]);
+    try {
+      multigrid_ = std::make_unique<SmoothedAggregation>(
+          SmoothedAggregation::from_pattern(matrix_, graph_from_edges(mesh_.vertex_count, edges)));
+    } catch (const std::invalid_argument&) {  // no useful hierarchy (coarsening stalled)
+      multigrid_unusable_ = true;
+      return false;
+    }
+    multigrid_structure_seconds_ = timer.seconds();
+    timer.restart();
+  }
+  try {
+    multigrid_->update(matrix_, permuted_filter_, threads);
+  } catch (const std::runtime_error&) {  // coarsest level not SPD (a broken matrix)
+    return false;
+  }
+  multigrid_last_setup_seconds_ = timer.seconds();
+  multigrid_setup_seconds_ += multigrid_last_setup_seconds_;
+  return true;
 }
 
 template <class Scalar>

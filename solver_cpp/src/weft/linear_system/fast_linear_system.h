@@ -51,6 +51,10 @@ class FastLinearSystem final : public LinearSystemPath {
   const SmoothedAggregation* multigrid() const { return multigrid_.get(); }
 
  private:
+  // Builds the hierarchy's structure (first call) and values for the permuted filter; false
+  // when multigrid cannot be used (block Jacobi then). Times into the multigrid_*_seconds_.
+  bool prepare_multigrid(int threads);
+
   const ClothMesh& mesh_;
   const ForceModel& model_;
   LinearSystemOptions options_;
@@ -72,9 +76,10 @@ class FastLinearSystem final : public LinearSystemPath {
   ConstraintFilter permuted_filter_;
   VectorX permuted_dv_;
   std::unique_ptr<SmoothedAggregation> multigrid_;
-  double multigrid_structure_seconds_ = 0.0, multigrid_setup_seconds_ = 0.0;
+  double multigrid_structure_seconds_ = 0.0, multigrid_setup_seconds_ = 0.0, multigrid_last_setup_seconds_ = 0.0;
   long long solves_ = 0;
   bool last_multigrid_ = false;
+  bool multigrid_unusable_ = false;  // the pattern gave no hierarchy: block Jacobi
 };
 
 }  // namespace weft

@@ -22,7 +22,7 @@ enum class MatrixPrecision { kFloat32, kFloat64 };
 // CG preconditioner of the fast path (the reference path always uses Eigen's Jacobi):
 // kAuto picks smoothed-aggregation multigrid from kMultigridAutoVertices vertices on.
 enum class Preconditioner { kAuto, kBlockJacobi, kMultigrid };
-constexpr int kMultigridAutoVertices = 2000;  // measured in docs/multigrid.md
+constexpr int kMultigridAutoVertices = 1000;  // measured: docs/multigrid.md
 
 struct LinearSystemOptions {
   LinearSystemKind kind = LinearSystemKind::kFast;

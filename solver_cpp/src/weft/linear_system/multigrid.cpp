@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
+#include <string>
 
 #include "weft/common/ordered_sum.h"
 
@@ -15,6 +16,9 @@ namespace {
 constexpr int kParallelLevelRows = 2048;
 
 int level_threads(int rows, int threads) { return rows >= kParallelLevelRows ? threads : 1; }
+
+// A coarsest level this large would make the per-solve dense Cholesky the whole cost.
+constexpr int kMaxCoarsestRows = 2000;
 
 // Sorted, unique columns of each row, from a row -> candidate-columns callback.
 template <class Emit>
@@ -117,6 +121,7 @@ double SmoothedAggregation::estimate_spectral_radius(const Level& level, int thr
   VectorX& previous = level.rr;
   VectorX& w = level.t;
   VectorX& av = level.res;
+  // Sums of term(i) over the rows, fixed order; term may also write row i.
   auto sums = [&](auto&& term) {
     return ordered_sums<1>(n, threads, [&](std::int64_t b, std::int64_t e) {
       std::array<double, 1> s{};
@@ -124,12 +129,10 @@ double SmoothedAggregation::estimate_spectral_radius(const Level& level, int thr
       return s;
     })[0];
   };
-  auto d_norm = [&](const VectorX& x) {
-    return std::sqrt(sums([&](int i) { return x.segment<3>(3 * i).dot(a.value[level.diagonal[i]] * x.segment<3>(3 * i)); }));
-  };
+  auto d_dot = [&](const Vec3& x, int i) { return x.dot(a.value[level.diagonal[i]] * x); };
   for (Eigen::Index k = 0; k < v.size(); ++k) v[k] = start_entry(k);
   previous.setZero(v.size());
-  double norm = d_norm(v);
+  const double norm = std::sqrt(sums([&](int i) { return d_dot(v.segment<3>(3 * i), i); }));
   if (!(norm > 0.0) || !std::isfinite(norm)) return 1.0;
   v /= norm;
   std::vector<double> alpha, beta;
@@ -137,13 +140,16 @@ double SmoothedAggregation::estimate_spectral_radius(const Level& level, int thr
     a.multiply(v, av, threads);
     const double aj = sums([&](int i) { return v.segment<3>(3 * i).dot(av.segment<3>(3 * i)); });
     alpha.push_back(aj);
+    if (j + 1 == steps) break;
     const double bj = beta.empty() ? 0.0 : beta.back();
-#pragma omp parallel for schedule(static) num_threads(threads) if (threads > 1)
-    for (int i = 0; i < n; ++i)
-      w.segment<3>(3 * i) = level.inverse_diagonal[i] * av.segment<3>(3 * i) - aj * v.segment<3>(3 * i) -
-                            bj * previous.segment<3>(3 * i);
-    const double b_next = d_norm(w);
-    if (!(b_next > 1e-12 * std::abs(aj)) || !std::isfinite(b_next) || j + 1 == steps) break;
+    // w = D^-1 A v - alpha v - beta v_previous and its D-norm, one pass.
+    const double b_next = std::sqrt(sums([&](int i) {
+      const Vec3 wi = level.inverse_diagonal[i] * av.segment<3>(3 * i) - aj * v.segment<3>(3 * i) -
+                      bj * previous.segment<3>(3 * i);
+      w.segment<3>(3 * i) = wi;
+      return d_dot(wi, i);
+    }));
+    if (!(b_next > 1e-12 * std::abs(aj)) || !std::isfinite(b_next)) break;
     beta.push_back(b_next);
     previous.swap(v);
     v = w / b_next;
@@ -171,9 +177,6 @@ void BlockRows::multiply(const VectorX& x, VectorX& y, int threads) const {
 SmoothedAggregation::SmoothedAggregation(const std::vector<int>& row_start, const std::vector<int>& columns,
                                          const Graph& strength, const MultigridOptions& options)
     : options_(options) {
-  if (getenv("MGCOARSE")) options_.coarse_rows = atoi(getenv("MGCOARSE"));  // TUNING
-  if (getenv("MGDEG")) options_.smoother_degree = atoi(getenv("MGDEG"));  // TUNING
-  if (getenv("MGLANCZOS")) options_.lanczos_steps = atoi(getenv("MGLANCZOS"));  // TUNING
   if (options_.smoother_degree < 1) throw std::invalid_argument("multigrid smoother degree must be at least 1");
   levels_.emplace_back();
   {
@@ -197,7 +200,11 @@ SmoothedAggregation::SmoothedAggregation(const std::vector<int>& row_start, cons
     level.inverse_diagonal.assign(n, Mat3::Identity());
     level.near_null.assign(n, Mat3::Identity());
     for (VectorX* v : {&level.x, &level.f, &level.res, &level.d, &level.t, &level.rr}) v->setZero(3 * n);
-    if (n <= options_.coarse_rows || l + 1 >= options_.max_levels || !coarsen_structure(l, g)) break;
+    if (n <= options_.coarse_rows || l + 1 >= options_.max_levels || !coarsen_structure(l, g)) {
+      if (n > kMaxCoarsestRows)
+        throw std::invalid_argument("multigrid: coarsening stalled at " + std::to_string(n) + " rows");
+      break;
+    }
     // The next level's strength graph: its whole pattern (theta = 0).
     const BlockRows& c = levels_[l + 1].a;
     Graph next;

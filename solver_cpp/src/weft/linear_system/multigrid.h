@@ -51,7 +51,7 @@ struct MultigridOptions {
   int coarse_rows = 64;         // stop coarsening at or below this many 3x3 rows
   int max_levels = 10;
   int smoother_degree = 2;      // Chebyshev degree of the pre- and of the post-smoothing
-  int lanczos_steps = 12;       // for rho(D^-1 A) per level and solve
+  int lanczos_steps = 10;       // for rho(D^-1 A) per level and solve
   double upper_factor = 1.1;    // Chebyshev upper bound = upper_factor * rho
   double lower_ratio = 1.0 / 30.0;  // Chebyshev lower bound = lower_ratio * upper bound
 };
