@@ -210,11 +210,11 @@ TEST(Multigrid, LanczosEstimateOfTheSpectralRadiusIsCloseBelowIt) {
   fast.build(cloth.x, cloth.v, 0.0, kStep);
   RowOrderSystem s = multigrid_of(fast, cloth.mesh, sheet_filter(nx, ny), 1);
   for (int l = 0; l + 1 < s.multigrid.levels(); ++l) {
-    const BlockRows& a = s.multigrid.level_matrix(l);
+    const BlockRowsF& a = s.multigrid.level_matrix(l);
     std::vector<Mat3> inverse_diagonal(a.rows);
     for (int i = 0; i < a.rows; ++i)
       for (int k = a.start[i]; k < a.start[i + 1]; ++k)
-        if (a.column[k] == i) inverse_diagonal[i] = a.value[k].inverse();
+        if (a.column[k] == i) inverse_diagonal[i] = a.value[k].cast<double>().inverse();
     VectorX x = VectorX::Random(3 * a.rows), t;
     double lambda = 0.0;
     for (int it = 0; it < 3000; ++it) {

@@ -21,8 +21,8 @@ int level_threads(int rows, int threads) { return rows >= kParallelLevelRows ? t
 constexpr int kMaxCoarsestRows = 2000;
 
 // Sorted, unique columns of each row, from a row -> candidate-columns callback.
-template <class Emit>
-void build_pattern(BlockRows& m, int rows, int cols, Emit&& emit) {
+template <class T, class Emit>
+void build_pattern(BlockRowsOf<T>& m, int rows, int cols, Emit&& emit) {
   m.rows = rows;
   m.cols = cols;
   m.start.assign(1, 0);
@@ -40,27 +40,44 @@ void build_pattern(BlockRows& m, int rows, int cols, Emit&& emit) {
     m.column.insert(m.column.end(), row.begin(), row.end());
     m.start.push_back(static_cast<int>(m.column.size()));
   }
-  m.value.assign(m.column.size(), Mat3::Zero());
+  m.value.assign(m.column.size(), BlockRowsOf<T>::Block::Zero());
 }
 
-// c = x y on c's (precomputed) pattern; each row of c summed in x's then y's column order.
-void multiply_values(const BlockRows& x, const BlockRows& y, BlockRows& c, int threads) {
+// c = x y on c's (precomputed) pattern; each row of c summed in double in x's then y's column
+// order, then stored in c's value type.
+template <class TX, class TY, class TC>
+void multiply_values(const BlockRowsOf<TX>& x, const BlockRowsOf<TY>& y, BlockRowsOf<TC>& c, int threads) {
 #pragma omp parallel num_threads(threads) if (threads > 1)
   {
     std::vector<int> where(c.cols, -1);
+    std::vector<Mat3> acc;
 #pragma omp for schedule(static)
     for (int i = 0; i < c.rows; ++i) {
-      for (int k = c.start[i]; k < c.start[i + 1]; ++k) {
-        where[c.column[k]] = k;
-        c.value[k].setZero();
-      }
+      acc.assign(c.start[i + 1] - c.start[i], Mat3::Zero());
+      for (int k = c.start[i]; k < c.start[i + 1]; ++k) where[c.column[k]] = k - c.start[i];
       for (int a = x.start[i]; a < x.start[i + 1]; ++a) {
-        const Mat3& xa = x.value[a];
+        const Mat3 xa = x.value[a].template cast<double>();
         const int j = x.column[a];
-        for (int b = y.start[j]; b < y.start[j + 1]; ++b) c.value[where[y.column[b]]].noalias() += xa * y.value[b];
+        for (int b = y.start[j]; b < y.start[j + 1]; ++b)
+          acc[where[y.column[b]]].noalias() += xa * y.value[b].template cast<double>();
       }
+      for (int k = c.start[i]; k < c.start[i + 1]; ++k) c.value[k] = acc[k - c.start[i]].template cast<TC>();
     }
   }
+}
+
+// Exact symmetry: each pair of blocks (i, j), (j, i) and each diagonal block replaced by the
+// float32 rounding of their double average.
+void symmetrize(BlockRowsF& m, const std::vector<int>& transpose, int threads) {
+#pragma omp parallel for schedule(static) num_threads(threads) if (threads > 1)
+  for (int i = 0; i < m.rows; ++i)
+    for (int k = m.start[i]; k < m.start[i + 1]; ++k) {
+      const int j = m.column[k], t = transpose[k];
+      if (j < i) continue;
+      const Mat3 average = 0.5 * (m.value[k].cast<double>() + m.value[t].cast<double>().transpose());
+      m.value[k] = average.cast<float>();
+      if (t != k) m.value[t] = m.value[k].transpose();
+    }
 }
 
 // Standard aggregation (Vanek et al.; pyamg's standard_aggregation), greedy in node order:
@@ -115,7 +132,7 @@ double start_entry(std::int64_t k) {
 // than power iterations on the clustered top of a cloth spectrum (10 power iterations
 // underestimated a 64x64 sheet's 2.46 as 2.02, and the Chebyshev smoother then diverged).
 double SmoothedAggregation::estimate_spectral_radius(const Level& level, int threads, int steps) const {
-  const BlockRows& a = level.a;
+  const BlockRowsF& a = level.a;
   const int n = a.rows;
   VectorX& v = level.d;
   VectorX& previous = level.rr;
@@ -129,7 +146,7 @@ double SmoothedAggregation::estimate_spectral_radius(const Level& level, int thr
       return s;
     })[0];
   };
-  auto d_dot = [&](const Vec3& x, int i) { return x.dot(a.value[level.diagonal[i]] * x); };
+  auto d_dot = [&](const Vec3& x, int i) { return x.dot(a.value[level.diagonal[i]].cast<double>() * x); };
   for (Eigen::Index k = 0; k < v.size(); ++k) v[k] = start_entry(k);
   previous.setZero(v.size());
   const double norm = std::sqrt(sums([&](int i) { return d_dot(v.segment<3>(3 * i), i); }));
@@ -164,15 +181,19 @@ double SmoothedAggregation::estimate_spectral_radius(const Level& level, int thr
   return rho > 0.0 && std::isfinite(rho) ? rho : 1.0;
 }
 
-void BlockRows::multiply(const VectorX& x, VectorX& y, int threads) const {
+template <class T>
+void BlockRowsOf<T>::multiply(const VectorX& x, VectorX& y, int threads) const {
   y.resize(3 * static_cast<Eigen::Index>(rows));
 #pragma omp parallel for schedule(static) num_threads(threads) if (threads > 1)
   for (int i = 0; i < rows; ++i) {
     Vec3 s = Vec3::Zero();
-    for (int k = start[i]; k < start[i + 1]; ++k) s.noalias() += value[k] * x.segment<3>(3 * column[k]);
+    for (int k = start[i]; k < start[i + 1]; ++k)
+      s.noalias() += value[k].template cast<double>() * x.segment<3>(3 * column[k]);
     y.segment<3>(3 * i) = s;
   }
 }
+template struct BlockRowsOf<float>;
+template struct BlockRowsOf<double>;
 
 SmoothedAggregation::SmoothedAggregation(const std::vector<int>& row_start, const std::vector<int>& columns,
                                          const Graph& strength, const MultigridOptions& options)
@@ -180,11 +201,11 @@ SmoothedAggregation::SmoothedAggregation(const std::vector<int>& row_start, cons
   if (options_.smoother_degree < 1) throw std::invalid_argument("multigrid smoother degree must be at least 1");
   levels_.emplace_back();
   {
-    BlockRows& a = levels_[0].a;
+    BlockRowsF& a = levels_[0].a;
     a.rows = a.cols = static_cast<int>(row_start.size()) - 1;
     a.start = row_start;
     a.column = columns;
-    a.value.assign(columns.size(), Mat3::Zero());
+    a.value.assign(columns.size(), Mat3f::Zero());
   }
   if (strength.size() != levels_[0].a.rows) throw std::invalid_argument("strength graph and pattern differ in size");
   Graph g = strength;
@@ -197,6 +218,15 @@ SmoothedAggregation::SmoothedAggregation(const std::vector<int>& row_start, cons
         if (level.a.column[k] == i) level.diagonal[i] = k;
     if (std::find(level.diagonal.begin(), level.diagonal.end(), -1) != level.diagonal.end())
       throw std::invalid_argument("multigrid: a row of the pattern has no diagonal block");
+    level.transpose.assign(level.a.column.size(), -1);
+    for (int i = 0; i < n; ++i)
+      for (int k = level.a.start[i]; k < level.a.start[i + 1]; ++k) {
+        const int j = level.a.column[k];
+        const auto first = level.a.column.begin() + level.a.start[j], last = level.a.column.begin() + level.a.start[j + 1];
+        const auto found = std::lower_bound(first, last, i);
+        if (found == last || *found != i) throw std::invalid_argument("multigrid: the pattern is not symmetric");
+        level.transpose[k] = static_cast<int>(found - level.a.column.begin());
+      }
     level.inverse_diagonal.assign(n, Mat3::Identity());
     level.near_null.assign(n, Mat3::Identity());
     for (VectorX* v : {&level.x, &level.f, &level.res, &level.d, &level.t, &level.rr}) v->setZero(3 * n);
@@ -206,7 +236,7 @@ SmoothedAggregation::SmoothedAggregation(const std::vector<int>& row_start, cons
       break;
     }
     // The next level's strength graph: its whole pattern (theta = 0).
-    const BlockRows& c = levels_[l + 1].a;
+    const BlockRowsF& c = levels_[l + 1].a;
     Graph next;
     next.offsets.assign(1, 0);
     for (int i = 0; i < c.rows; ++i) {
@@ -235,7 +265,7 @@ bool SmoothedAggregation::coarsen_structure(int l, const Graph& strength) {
     for (int i = 0; i < n; ++i) level.members[fill[level.aggregate[i]]++] = i;
     level.tentative.assign(n, Mat3::Zero());
     level.kept.assign(nc, Mat3::Identity());
-    const BlockRows& a = level.a;
+    const BlockRowsF& a = level.a;
     // P: row i reaches the aggregates of i's matrix neighbours (one Jacobi step of T).
     build_pattern(level.p, n, nc, [&](int i, auto&& add) {
       for (int k = a.start[i]; k < a.start[i + 1]; ++k) add(level.aggregate[a.column[k]]);
@@ -289,7 +319,7 @@ double SmoothedAggregation::operator_complexity() const {
 void SmoothedAggregation::update_blocks(const std::vector<Mat3>& fine_blocks, const ConstraintFilter& filter,
                                         int threads) {
   if (fine_blocks.size() != levels_[0].a.value.size()) throw std::invalid_argument("multigrid: wrong block count");
-  levels_[0].a.value = fine_blocks;
+  for (size_t k = 0; k < fine_blocks.size(); ++k) levels_[0].a.value[k] = fine_blocks[k].cast<float>();
   update_values(filter, threads);
 }
 
@@ -306,9 +336,14 @@ void SmoothedAggregation::update_values(const ConstraintFilter& filter, int thre
       for (int k = fine.a.start[i]; k < fine.a.start[i + 1]; ++k) {
         const int j = fine.a.column[k];
         if (!constrained[i] && !constrained[j]) continue;
-        Mat3 v = filter.projection[i] * fine.a.value[k] * filter.projection[j];
-        if (j == i) v += Mat3::Identity() - filter.projection[i];
-        fine.a.value[k] = v;
+        // (S_i A_ij) S_j above the diagonal, S_i (A_ij S_j) below: block (j, i) is then the
+        // exact transpose of block (i, j) (the fixed pattern's values are symmetric bit for bit).
+        const Mat3 a = fine.a.value[k].cast<double>();
+        const Mat3& si = filter.projection[i];
+        const Mat3& sj = filter.projection[j];
+        Mat3 v = j >= i ? Mat3((si * a) * sj) : Mat3(si * (a * sj));
+        if (j == i) v = Mat3(0.5 * (v + v.transpose())) + (Mat3::Identity() - si);  // a copy: no aliasing
+        fine.a.value[k] = v.cast<float>();
       }
       fine.near_null[i] = filter.projection[i];
     }
@@ -316,10 +351,11 @@ void SmoothedAggregation::update_values(const ConstraintFilter& filter, int thre
     std::fill(fine.near_null.begin(), fine.near_null.end(), Mat3::Identity());
   }
   for (int l = 0; l + 1 < levels(); ++l) update_level_values(l, threads);
-  const BlockRows& last = levels_.back().a;
+  const BlockRowsF& last = levels_.back().a;
   Eigen::MatrixXd dense = Eigen::MatrixXd::Zero(3 * last.rows, 3 * last.rows);
   for (int i = 0; i < last.rows; ++i)
-    for (int k = last.start[i]; k < last.start[i + 1]; ++k) dense.block<3, 3>(3 * i, 3 * last.column[k]) = last.value[k];
+    for (int k = last.start[i]; k < last.start[i + 1]; ++k)
+      dense.block<3, 3>(3 * i, 3 * last.column[k]) = last.value[k].cast<double>();
   coarse_solver_.compute(dense);
   if (coarse_solver_.info() != Eigen::Success) throw std::runtime_error("multigrid: coarsest matrix not positive definite");
 }
@@ -327,12 +363,12 @@ void SmoothedAggregation::update_values(const ConstraintFilter& filter, int thre
 void SmoothedAggregation::update_level_values(int l, int threads) {
   Level& level = levels_[l];
   Level& next = levels_[l + 1];
-  const BlockRows& a = level.a;
+  const BlockRowsF& a = level.a;
   const int n = a.rows, nc = next.a.rows;
   const int th = level_threads(n, threads);
 
 #pragma omp parallel for schedule(static) num_threads(th) if (th > 1)
-  for (int i = 0; i < n; ++i) level.inverse_diagonal[i] = a.value[level.diagonal[i]].inverse();
+  for (int i = 0; i < n; ++i) level.inverse_diagonal[i] = a.value[level.diagonal[i]].cast<double>().inverse();
 
   level.rho = estimate_spectral_radius(level, th, options_.lanczos_steps);
   // Tentative prolongator: T_i = B_i G_J^(-1/2) on the range of G_J; next level's B_J = G_J^(1/2).
@@ -390,7 +426,7 @@ void SmoothedAggregation::update_level_values(int l, int threads) {
       }
       for (int k = a.start[i]; k < a.start[i + 1]; ++k) {
         const int j = a.column[k];
-        p.value[where[level.aggregate[j]]].noalias() += a.value[k] * level.tentative[j];
+        p.value[where[level.aggregate[j]]].noalias() += a.value[k].cast<double>() * level.tentative[j];
       }
       const Mat3 scale = -omega * level.inverse_diagonal[i];
       for (int k = p.start[i]; k < p.start[i + 1]; ++k) p.value[k] = (scale * p.value[k]).eval();
@@ -407,10 +443,10 @@ void SmoothedAggregation::update_level_values(int l, int threads) {
   multiply_values(a, p, level.ap, th);
   multiply_values(r, level.ap, next.a, thc);
   for (int J = 0; J < nc; ++J) {
-    Mat3& d = next.a.value[next.diagonal[J]];
-    d = (0.5 * (d + d.transpose())).eval();  // exact symmetry of the diagonal blocks
-    d += Mat3::Identity() - level.kept[J];
+    Mat3f& d = next.a.value[next.diagonal[J]];
+    d = (d.cast<double>() + Mat3::Identity() - level.kept[J]).cast<float>();
   }
+  symmetrize(next.a, next.transpose, thc);
 }
 
 void SmoothedAggregation::smooth(const Level& level, const VectorX& f, VectorX& x, bool zero_start, int threads) const {

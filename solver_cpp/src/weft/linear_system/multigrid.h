@@ -14,7 +14,8 @@
 //                 Lanczos steps (D: the 3x3 diagonal blocks);
 //   coarse        A_c = P^T A P + (I - Q): the same pre-filtered form one level down, so every
 //                 level is SPD; B_c,J = G_J^(1/2).
-// Coarsest level: dense Cholesky (Eigen LLT). Cycle: V(1,1) with Chebyshev smoothing of
+// Level operators are stored in float32 (arithmetic in double, values rounded once, symmetric
+// bit for bit); prolongators in double. Coarsest level: dense Cholesky (Eigen LLT). Cycle: V(1,1) with Chebyshev smoothing of
 // D^-1 A on [upper / 30, upper], upper = 1.1 rho, the same polynomial before and after the
 // coarse correction, so the cycle is a symmetric positive-definite operator and CG stays valid.
 //
@@ -37,15 +38,21 @@
 
 namespace weft {
 
-// Block compressed rows of 3x3 double blocks, absolute sorted columns.
-struct BlockRows {
+using Mat3f = Eigen::Matrix3f;
+
+// Block compressed rows of 3x3 blocks (values of type T), absolute sorted columns.
+template <class T>
+struct BlockRowsOf {
+  using Block = Eigen::Matrix<T, 3, 3>;
   int rows = 0, cols = 0;
   std::vector<int> start{0};
   std::vector<int> column;
-  std::vector<Mat3> value;
-  // y = M x; rows split over threads, each row summed in column order.
+  std::vector<Block> value;
+  // y = M x in double; rows split over threads, each row summed in column order.
   void multiply(const VectorX& x, VectorX& y, int threads) const;
 };
+using BlockRows = BlockRowsOf<double>;    // prolongators, restrictions, A P
+using BlockRowsF = BlockRowsOf<float>;    // level operators: float32 values, double arithmetic
 
 struct MultigridOptions {
   int coarse_rows = 64;         // stop coarsening at or below this many 3x3 rows
@@ -77,13 +84,14 @@ class SmoothedAggregation {
   int levels() const { return static_cast<int>(levels_.size()); }
   std::vector<int> level_rows() const;
   double operator_complexity() const;  // blocks of all levels / blocks of the finest
-  const BlockRows& level_matrix(int l) const { return levels_[l].a; }
+  const BlockRowsF& level_matrix(int l) const { return levels_[l].a; }
   double spectral_radius(int l) const { return levels_[l].rho; }
 
  private:
   struct Level {
-    BlockRows a;                       // operator: values per update()
+    BlockRowsF a;                      // operator: values per update(), float32 (half the bytes)
     std::vector<int> diagonal;         // block index of each row's diagonal
+    std::vector<int> transpose;        // block index of (column, row) for each block
     std::vector<Mat3> inverse_diagonal;
     std::vector<Mat3> near_null;       // B_i
     std::vector<int> aggregate;        // node -> coarse node (not on the coarsest level)
@@ -121,10 +129,10 @@ SmoothedAggregation SmoothedAggregation::from_pattern(const BcrsMatrix<Scalar>& 
 
 template <class Scalar>
 void SmoothedAggregation::update(const BcrsMatrix<Scalar>& a, const ConstraintFilter& filter, int threads) {
-  std::vector<Mat3>& blocks = levels_[0].a.value;
+  std::vector<Mat3f>& blocks = levels_[0].a.value;
 #pragma omp parallel for schedule(static) num_threads(threads)
   for (std::int64_t k = 0; k < static_cast<std::int64_t>(blocks.size()); ++k)
-    blocks[k] = Eigen::Map<const Eigen::Matrix<Scalar, 3, 3>>(a.block(static_cast<int>(k))).template cast<double>();
+    blocks[k] = Eigen::Map<const Eigen::Matrix<Scalar, 3, 3>>(a.block(static_cast<int>(k))).template cast<float>();
   update_values(filter, threads);
 }
 
