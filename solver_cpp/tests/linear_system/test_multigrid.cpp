@@ -53,6 +53,22 @@ RowOrderSystem multigrid_of(const FastLinearSystem<float>& fast, const ClothMesh
   return s;
 }
 
+// A stiff sheet's float32 fast system, built once, and the hierarchy of its sheet_filter system.
+struct SheetHierarchy {
+  SmallCloth cloth;
+  FastLinearSystem<float> fast;
+  RowOrderSystem system;
+  SheetHierarchy(int nx, int ny, double stretch_scale)
+      : cloth(nx, ny, stretch_scale),
+        fast(cloth.mesh, *cloth.model, LinearSystemOptions{}, 2),
+        system(build_and_coarsen(fast, cloth, sheet_filter(nx, ny))) {}
+  static RowOrderSystem build_and_coarsen(FastLinearSystem<float>& fast, const SmallCloth& cloth,
+                                          const ConstraintFilter& filter) {
+    fast.build(cloth.x, cloth.v, 0.0, kStep);
+    return multigrid_of(fast, cloth.mesh, filter, 1);
+  }
+};
+
 // ||S (b - A dv)|| / ||S (b - A z)||: the relative residual CG works on, recomputed from dv.
 template <class Scalar>
 double filtered_residual(const FastLinearSystem<Scalar>& fast, const ConstraintFilter& filter, const VectorX& dv) {
@@ -68,11 +84,8 @@ double filtered_residual(const FastLinearSystem<Scalar>& fast, const ConstraintF
 
 TEST(Multigrid, VCycleIsSymmetricAndPositiveDefinite) {
   const int nx = 40, ny = 36;
-  SmallCloth cloth(nx, ny, 10.0);
-  LinearSystemOptions opt;
-  FastLinearSystem<float> fast(cloth.mesh, *cloth.model, opt, 2);
-  fast.build(cloth.x, cloth.v, 0.0, kStep);
-  RowOrderSystem s = multigrid_of(fast, cloth.mesh, sheet_filter(nx, ny), 1);
+  SheetHierarchy sheet(nx, ny, 10.0);
+  RowOrderSystem& s = sheet.system;
   ASSERT_GE(s.multigrid.levels(), 3);
   EXPECT_LE(s.multigrid.level_rows().back(), MultigridOptions{}.coarse_rows);
   std::mt19937 rng(3);
@@ -203,12 +216,8 @@ TEST(Multigrid, AllPinnedAggregatesKeepTheHierarchyPositiveDefinite) {
 TEST(Multigrid, LanczosEstimateOfTheSpectralRadiusIsCloseBelowIt) {
   // The Chebyshev smoother needs an upper bound of rho(D^-1 A) within its 1.1 margin; ten
   // power iterations were 18% low on this kind of sheet (and the V-cycle then indefinite).
-  const int nx = 48, ny = 40;
-  SmallCloth cloth(nx, ny, 20.0);
-  LinearSystemOptions opt;
-  FastLinearSystem<float> fast(cloth.mesh, *cloth.model, opt, 2);
-  fast.build(cloth.x, cloth.v, 0.0, kStep);
-  RowOrderSystem s = multigrid_of(fast, cloth.mesh, sheet_filter(nx, ny), 1);
+  SheetHierarchy sheet(48, 40, 20.0);
+  const RowOrderSystem& s = sheet.system;
   for (int l = 0; l + 1 < s.multigrid.levels(); ++l) {
     const BlockRowsF& a = s.multigrid.level_matrix(l);
     std::vector<Mat3> inverse_diagonal(a.rows);
