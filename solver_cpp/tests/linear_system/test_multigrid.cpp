@@ -101,8 +101,10 @@ TEST(Multigrid, VCycleIsSymmetricAndPositiveDefinite) {
     const VectorX u = random_vector(), v = random_vector();
     s.multigrid.apply(u, bu, 1);
     s.multigrid.apply(v, bv, 1);
+    // Symmetric up to round-off: the level products run in float32 (x rounded to float32), as
+    // CG's own product does.
     const double scale = std::sqrt(u.dot(bu) * v.dot(bv));
-    EXPECT_NEAR(v.dot(bu), u.dot(bv), 1e-11 * scale) << "u.Bv == v.Bu";
+    EXPECT_NEAR(v.dot(bu), u.dot(bv), 1e-6 * scale) << "u.Bv == v.Bu";
     EXPECT_GT(u.dot(bu), 0.0);
     EXPECT_GT(v.dot(bv), 0.0);
   }

@@ -154,7 +154,7 @@ double SmoothedAggregation::estimate_spectral_radius(const Level& level, int thr
   v /= norm;
   std::vector<double> alpha, beta;
   for (int j = 0; j < steps; ++j) {
-    a.multiply(v, av, threads);
+    level.kernel.multiply(v.data(), av.data(), threads);
     const double aj = sums([&](int i) { return v.segment<3>(3 * i).dot(av.segment<3>(3 * i)); });
     alpha.push_back(aj);
     if (j + 1 == steps) break;
@@ -227,6 +227,7 @@ SmoothedAggregation::SmoothedAggregation(const std::vector<int>& row_start, cons
         if (found == last || *found != i) throw std::invalid_argument("multigrid: the pattern is not symmetric");
         level.transpose[k] = static_cast<int>(found - level.a.column.begin());
       }
+    level.kernel.set_pattern(level.a.start, level.a.column);
     level.inverse_diagonal.assign(n, Mat3::Identity());
     level.near_null.assign(n, Mat3::Identity());
     for (VectorX* v : {&level.x, &level.f, &level.res, &level.d, &level.t, &level.rr}) v->setZero(3 * n);
@@ -350,7 +351,11 @@ void SmoothedAggregation::update_values(const ConstraintFilter& filter, int thre
   } else {
     std::fill(fine.near_null.begin(), fine.near_null.end(), Mat3::Identity());
   }
-  for (int l = 0; l + 1 < levels(); ++l) update_level_values(l, threads);
+  finish_level(0, threads);
+  for (int l = 0; l + 1 < levels(); ++l) {
+    update_level_values(l, threads);
+    finish_level(l + 1, threads);
+  }
   const BlockRowsF& last = levels_.back().a;
   Eigen::MatrixXd dense = Eigen::MatrixXd::Zero(3 * last.rows, 3 * last.rows);
   for (int i = 0; i < last.rows; ++i)
@@ -358,6 +363,15 @@ void SmoothedAggregation::update_values(const ConstraintFilter& filter, int thre
       dense.block<3, 3>(3 * i, 3 * last.column[k]) = last.value[k].cast<double>();
   coarse_solver_.compute(dense);
   if (coarse_solver_.info() != Eigen::Success) throw std::runtime_error("multigrid: coarsest matrix not positive definite");
+}
+
+void SmoothedAggregation::finish_level(int l, int threads) {
+  Level& level = levels_[l];
+  const std::int64_t blocks = static_cast<std::int64_t>(level.a.value.size());
+  const int th = level_threads(level.a.rows, threads);
+#pragma omp parallel for schedule(static) num_threads(th) if (th > 1)
+  for (std::int64_t k = 0; k < blocks; ++k)  // both column-major
+    std::copy(level.a.value[k].data(), level.a.value[k].data() + 9, level.kernel.block(static_cast<int>(k)));
 }
 
 void SmoothedAggregation::update_level_values(int l, int threads) {
@@ -457,7 +471,7 @@ void SmoothedAggregation::smooth(const Level& level, const VectorX& f, VectorX& 
   VectorX& rr = level.rr;
   VectorX& d = level.d;
   VectorX& t = level.t;
-  if (!zero_start) level.a.multiply(x, t, threads);
+  if (!zero_start) level.kernel.multiply(x.data(), t.data(), threads);
 #pragma omp parallel for schedule(static) num_threads(threads) if (threads > 1)
   for (int i = 0; i < n; ++i) {
     const Vec3 res = zero_start ? Vec3(f.segment<3>(3 * i)) : Vec3(f.segment<3>(3 * i) - t.segment<3>(3 * i));
@@ -472,7 +486,7 @@ void SmoothedAggregation::smooth(const Level& level, const VectorX& f, VectorX& 
   }
   double rho_old = 1.0 / sigma;
   for (int k = 1; k < options_.smoother_degree; ++k) {
-    level.a.multiply(d, t, threads);
+    level.kernel.multiply(d.data(), t.data(), threads);
     const double rho_new = 1.0 / (2.0 * sigma - rho_old);
     const double c1 = rho_new * rho_old, c2 = 2.0 * rho_new / delta;
 #pragma omp parallel for schedule(static) num_threads(threads) if (threads > 1)
@@ -496,7 +510,7 @@ void SmoothedAggregation::cycle(int l, int threads) const {
   const int th = level_threads(level.a.rows, threads);
   const Level& next = levels_[l + 1];
   smooth(level, level.f, level.x, true, th);
-  level.a.multiply(level.x, level.res, th);
+  level.kernel.multiply(level.x.data(), level.res.data(), th);
   level.res = level.f - level.res;
   level.r.multiply(level.res, next.f, level_threads(next.a.rows, threads));
   cycle(l + 1, threads);

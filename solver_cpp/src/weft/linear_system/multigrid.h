@@ -14,8 +14,8 @@
 //                 Lanczos steps (D: the 3x3 diagonal blocks);
 //   coarse        A_c = P^T A P + (I - Q): the same pre-filtered form one level down, so every
 //                 level is SPD; B_c,J = G_J^(1/2).
-// Level operators are stored in float32 (arithmetic in double, values rounded once, symmetric
-// bit for bit); prolongators in double. Coarsest level: dense Cholesky (Eigen LLT). Cycle: V(1,1) with Chebyshev smoothing of
+// Level operators are stored in float32 (values rounded once, symmetric bit for bit; setup
+// arithmetic in double, the cycle's products by the BCRS float32 kernel); prolongators in double. Coarsest level: dense Cholesky (Eigen LLT). Cycle: V(1,1) with Chebyshev smoothing of
 // D^-1 A on [upper / 30, upper], upper = 1.1 rho, the same polynomial before and after the
 // coarse correction, so the cycle is a symmetric positive-definite operator and CG stays valid.
 //
@@ -90,6 +90,7 @@ class SmoothedAggregation {
  private:
   struct Level {
     BlockRowsF a;                      // operator: values per update(), float32 (half the bytes)
+    BcrsMatrix<float> kernel;          // the same values for the cycle's products (bcrs.h SSE kernel)
     std::vector<int> diagonal;         // block index of each row's diagonal
     std::vector<int> transpose;        // block index of (column, row) for each block
     std::vector<Mat3> inverse_diagonal;
@@ -106,6 +107,7 @@ class SmoothedAggregation {
   bool coarsen_structure(int l, const Graph& strength);
   void update_values(const ConstraintFilter& filter, int threads);  // level 0's blocks already copied
   void update_level_values(int l, int threads);
+  void finish_level(int l, int threads);  // copies level l's operator values into its kernel
   double estimate_spectral_radius(const Level& level, int threads, int steps) const;
   void smooth(const Level& level, const VectorX& f, VectorX& x, bool zero_start, int threads) const;
   void cycle(int l, int threads) const;
