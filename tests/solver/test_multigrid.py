@@ -13,6 +13,7 @@ import scipy.sparse.linalg
 from scenes.builders import sheet_shot
 from scenes.collision import drop_shot
 from weft import _solver
+from weft.shot import ShotValidationError, parse_shot
 from weft.simulate import new_simulation, simulate
 
 from tests.helpers import make_scene
@@ -87,6 +88,14 @@ def test_auto_picks_by_vertex_count() -> None:
     large = int(np.ceil(np.sqrt(threshold)))
     _, _, sim = run(pinned_sheet(large, frames=2))
     assert _solver.linear_system_info(sim).preconditioner == "multigrid"
+
+
+def test_the_schema_names_the_choices() -> None:
+    assert parse_shot(pinned_sheet(8)).solver.preconditioner == "auto"
+    assert parse_shot(pinned_sheet(8, preconditioner="multigrid")).solver.preconditioner == "multigrid"
+    with pytest.raises(ShotValidationError) as info:
+        parse_shot(pinned_sheet(8, preconditioner="ilu"))
+    assert [e.field for e in info.value.errors] == ["solver.preconditioner"]
 
 
 @pytest.fixture(scope="module")
