@@ -185,6 +185,13 @@ class SolverSettings(StrictModel):
         description="Assembly and solve path: 'fast' (fixed-pattern BCRS, RCM, pre-filtered PCG) or 'reference' "
         "(Eigen sparse matrix, Eigen ConjugateGradient); see docs/linear-system.md.",
     )
+    preconditioner: Literal["auto", "multigrid", "block_jacobi"] = Field(
+        "auto",
+        description="CG preconditioner of the fast path: 'multigrid' (smoothed-aggregation algebraic multigrid, "
+        "Tamstorf et al. 2015: a few tens of iterations instead of hundreds, plus a per-substep setup), "
+        "'block_jacobi' (3x3 block Jacobi, cheap per iteration), or 'auto' (multigrid from the cloth size at which "
+        "it measured faster, block Jacobi below; see docs/multigrid.md). The reference path ignores it.",
+    )
 
 
 class Features(StrictModel):

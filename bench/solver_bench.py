@@ -10,6 +10,12 @@ repeats, effective bandwidth = bytes it must stream / time) and the same solve d
 the fast PCG and by Eigen's ConjugateGradient in double to the same relative residual. A
 STREAM triad (C++, same process, same threads) gives the machine's bandwidth: once at the start
 and again right after each SpMV measurement, which the SpMV/triad column uses.
+
+The fast path runs twice per size, once per CG preconditioner (block Jacobi, smoothed-aggregation
+multigrid; docs/multigrid.md), interleaved with the reference path; the preconditioner table gives
+iterations, multigrid setup, solve and whole-step time and the speed-up of multigrid over block
+Jacobi measured in the same run. `--sizes 16,32,64` runs sheets of those sides instead (one frame
+each), for the small sizes at which `solver.preconditioner: auto` switches.
 """
 
 from __future__ import annotations
@@ -44,6 +50,11 @@ SIZES = [
     Size("sheet-640k", 800, 0, steps=1),
 ]
 QUICK_SIZES = [Size("sheet-2.5k", 50, 1), Size("sheet-10k", 100, 0, steps=1)]
+PRECONDITIONERS = ("block_jacobi", "multigrid")  # the fast path's runs per size, in this order
+
+
+def custom_sizes(sides: list[int]) -> list[Size]:
+    return [Size(f"sheet-{side * side}", side, 1) for side in sides]
 
 
 @dataclass
@@ -51,6 +62,7 @@ class PathRecord:
     scene: str
     vertices: int
     path: str
+    preconditioner: str           # "block_jacobi" or "multigrid" (fast path); "jacobi" (reference: Eigen's)
     precision: str
     threads: int
     measured: str                 # what was timed, e.g. "2 frames" or "1 of 4 steps, scaled"
@@ -81,15 +93,25 @@ def sheet_document(side: int) -> dict[str, Any]:
 class PathRun:
     """One path's simulation and what has been timed on it so far."""
 
-    def __init__(self, scene: Any, path: str, threads: int) -> None:
+    def __init__(self, scene: Any, path: str, threads: int, preconditioner: str = "block_jacobi") -> None:
         from weft import _solver
         from weft.solver_setup import build_setup
 
-        self.path, self.threads = path, threads
-        self.sim = _solver.Simulation(build_setup(scene, threads, path))
+        self.path, self.threads, self.preconditioner = path, threads, preconditioner
+        setup = build_setup(scene, threads, path)
+        solver = setup.solver
+        solver.preconditioner = {"block_jacobi": _solver.Preconditioner.BLOCK_JACOBI,
+                                 "multigrid": _solver.Preconditioner.MULTIGRID}[preconditioner]
+        setup.solver = solver
+        self.sim = _solver.Simulation(setup)
         self.build = self.solve = self.overhead = 0.0
         self.iterations = self.steps = 0
         self.time = 0.0
+        self.setup_before = 0.0  # multigrid setup seconds before the timed frames
+
+    @property
+    def label(self) -> str:
+        return self.path if self.path == "reference" or self.preconditioner == "block_jacobi" else "fast+multigrid"
 
     def advance(self, duration: float, substeps: int) -> None:
         t = self.sim.advance_frame(self.time, duration, substeps)
@@ -101,15 +123,17 @@ class PathRun:
         self.steps += substeps
 
 
-def measure_size(scene: Any, size: Size, threads: int) -> tuple[PathRecord, PathRecord, Any]:
-    """Both paths, their timed frames or steps interleaved so that both see the same machine load."""
+def measure_size(scene: Any, size: Size, threads: int) -> tuple[list[PathRecord], PathRecord, Any]:
+    """The fast path once per preconditioner and the reference path, their timed frames or steps
+    interleaved so that all see the same machine load."""
     from weft import _solver
 
-    runs = [PathRun(scene, "fast", threads), PathRun(scene, "reference", threads)]
+    runs = [PathRun(scene, "fast", threads, p) for p in PRECONDITIONERS] + [PathRun(scene, "reference", threads)]
     h = 1.0 / FPS / SUBSTEPS
-    for run in runs:  # warm-up step: first touch of every buffer
+    for run in runs:  # warm-up step: first touch of every buffer (and the multigrid structure)
         run.sim.advance_frame(0.0, h, 1)
         run.time = h
+        run.setup_before = _solver.linear_system_info(run.sim).multigrid_setup_seconds
     for _ in range(size.frames or size.steps):
         for run in runs:
             if size.frames:
@@ -126,15 +150,23 @@ def measure_size(scene: Any, size: Size, threads: int) -> tuple[PathRecord, Path
             f"{size.steps} of {SUBSTEPS} steps, scaled"
         info = _solver.linear_system_info(run.sim)
         records.append(PathRecord(
-            scene=size.name, vertices=scene.vertex_count, path=run.path, precision=info.precision, threads=threads,
-            measured=measured, build_s_per_frame=build, solve_s_per_frame=solve, sim_s_per_frame=total,
-            s_per_step=total / SUBSTEPS, cg_iterations_per_step=run.iterations / run.steps,
+            scene=size.name, vertices=scene.vertex_count, path=run.label,
+            preconditioner=run.preconditioner if run.path == "fast" else "jacobi", precision=info.precision,
+            threads=threads, measured=measured, build_s_per_frame=build, solve_s_per_frame=solve,
+            sim_s_per_frame=total, s_per_step=total / SUBSTEPS, cg_iterations_per_step=run.iterations / run.steps,
             force_elements=info.force_elements, per_force_elements=info.per_force_elements,
             bandwidth_natural=info.bandwidth_natural, bandwidth=info.bandwidth, narrow_columns=info.narrow_columns,
         ))
+        if run.preconditioner == "multigrid":
+            records[-1].extra = {
+                "multigrid_setup_s_per_frame": (info.multigrid_setup_seconds - run.setup_before) / frames,
+                "multigrid_structure_seconds": info.multigrid_structure_seconds,
+                "multigrid_rows": list(info.multigrid_rows),
+                "multigrid_operator_complexity": info.multigrid_operator_complexity,
+            }
     fast_sim = runs[0].sim
     del runs
-    return records[0], records[1], fast_sim
+    return records[:-1], records[-1], fast_sim
 
 
 def fast_extras(sim: Any, threads: int, tolerance: float) -> dict[str, Any]:
@@ -161,7 +193,8 @@ def fast_extras(sim: Any, threads: int, tolerance: float) -> dict[str, Any]:
     }
 
 
-def run_bench(threads: int = 2, quick: bool = False, log: Callable[[str], None] = print) -> dict[str, Any]:
+def run_bench(threads: int = 2, quick: bool = False, log: Callable[[str], None] = print,
+              sides: list[int] | None = None) -> dict[str, Any]:
     from weft import _solver
     from weft.shot import parse_shot
     from weft.solver_setup import resolve_scene
@@ -172,20 +205,26 @@ def run_bench(threads: int = 2, quick: bool = False, log: Callable[[str], None] 
     log(f"STREAM triad ({threads} threads, 3 x 160 MB): {triad / 1e9:.1f} GB/s; "
         f"OMP_WAIT_POLICY={os.environ.get('OMP_WAIT_POLICY')}")
     records: list[PathRecord] = []
-    for size in QUICK_SIZES if quick else SIZES:
+    for size in custom_sizes(sides) if sides else QUICK_SIZES if quick else SIZES:
         document = sheet_document(size.side)
         scene = resolve_scene(parse_shot(document), Path.cwd())
         del document
-        fast, reference, sim = measure_size(scene, size, threads)
+        (fast, multigrid), reference, sim = measure_size(scene, size, threads)
         fast.extra = fast_extras(sim, threads, 1e-5)
         del sim
-        log(f"{size.name}: fast {fast.sim_s_per_frame:.3f} s/frame, reference {reference.sim_s_per_frame:.3f} s/frame")
+        log(f"{size.name}: fast {fast.sim_s_per_frame:.3f} s/frame (multigrid {multigrid.sim_s_per_frame:.3f}), "
+            f"reference {reference.sim_s_per_frame:.3f} s/frame")
         fast.extra.update({
             "build_speedup": reference.build_s_per_frame / fast.build_s_per_frame,
             "solve_speedup": reference.solve_s_per_frame / fast.solve_s_per_frame,
             "sim_speedup": reference.sim_s_per_frame / fast.sim_s_per_frame,
         })
-        records += [fast, reference]
+        multigrid.extra.update({
+            "solve_speedup_over_block_jacobi": fast.solve_s_per_frame / multigrid.solve_s_per_frame,
+            "sim_speedup_over_block_jacobi": fast.sim_s_per_frame / multigrid.sim_s_per_frame,
+            "iteration_ratio_block_jacobi": fast.cg_iterations_per_step / max(multigrid.cg_iterations_per_step, 1e-9),
+        })
+        records += [fast, multigrid, reference]
     return {
         "threads": threads,
         "substeps_per_frame": SUBSTEPS,
@@ -229,6 +268,26 @@ def format_tables(result: dict[str, Any]) -> str:
         lines.append(
             f"| | | reference | {r['measured']} | {r['build_s_per_frame']:.3f} | {r['solve_s_per_frame']:.3f} "
             f"| {r['sim_s_per_frame']:.3f} | {r['cg_iterations_per_step']:.0f} | | | | | | |")
+    multigrid = [r for r in records if r["path"] == "fast+multigrid"]
+    bj = {r["scene"]: r for r in fast}
+    lines += [
+        "",
+        "CG preconditioner of the fast path, same run (seconds per frame; solve includes the multigrid setup):",
+        "",
+        "| scene | vertices | preconditioner | CG it/step | setup | solve | sim/frame | solve x | sim x | levels (rows) "
+        "| op. complexity |",
+        "|---|---:|---|---:|---:|---:|---:|---:|---:|---|---:|",
+    ]
+    for m in multigrid:
+        b, e = bj[m["scene"]], m["extra"]
+        lines.append(
+            f"| {b['scene']} | {b['vertices']} | block Jacobi | {b['cg_iterations_per_step']:.0f} | | "
+            f"{b['solve_s_per_frame']:.3f} | {b['sim_s_per_frame']:.3f} | | | | |")
+        lines.append(
+            f"| | | multigrid | {m['cg_iterations_per_step']:.1f} | {e['multigrid_setup_s_per_frame']:.3f} "
+            f"| {m['solve_s_per_frame']:.3f} | {m['sim_s_per_frame']:.3f} | {e['solve_speedup_over_block_jacobi']:.2f} "
+            f"| {e['sim_speedup_over_block_jacobi']:.2f} | {' / '.join(str(r) for r in e['multigrid_rows'])} "
+            f"| {e['multigrid_operator_complexity']:.2f} |")
     lines += [
         "",
         "Same system solved from zero to the same relative residual (the fast path's last step):",
@@ -265,15 +324,18 @@ def format_tables(result: dict[str, Any]) -> str:
             f"Growth exponent (log-log slope) of fast s/step against vertices: "
             f"{growth_exponent(xs, [f['s_per_step'] for f in fast]):.2f}; "
             f"of s per CG iteration: "
-            f"{growth_exponent(xs, [f['s_per_step'] / max(f['cg_iterations_per_step'], 1) for f in fast]):.2f}.")
+            f"{growth_exponent(xs, [f['s_per_step'] / max(f['cg_iterations_per_step'], 1) for f in fast]):.2f}"
+            + (f"; with multigrid, of s/step: {growth_exponent(xs, [m['s_per_step'] for m in multigrid]):.2f}."
+               if len(multigrid) == len(fast) else "."))
     lines.append(
         f"Bench wall time: {result['wall_seconds']:.0f} s; 1-minute load average {result['load_average_start']:.1f} "
         f"at start, {result['load_average_end']:.1f} at end (this machine has {os.cpu_count()} cores).")
     return "\n".join(lines)
 
 
-def main(threads: int = 2, json_path: Path | None = None, quick: bool = False) -> dict[str, Any]:
-    result = run_bench(threads=threads, quick=quick)
+def main(threads: int = 2, json_path: Path | None = None, quick: bool = False,
+         sides: list[int] | None = None) -> dict[str, Any]:
+    result = run_bench(threads=threads, quick=quick, sides=sides)
     print(format_tables(result))
     if json_path is not None:
         json_path.write_text(json.dumps(result, indent=2))

@@ -293,6 +293,11 @@ def build_setup(scene: Scene, threads: int = 1, linear_system: str | None = None
     solver.matrix_precision = {"float32": _solver.MatrixPrecision.FLOAT32, "float64": _solver.MatrixPrecision.FLOAT64}[
         shot.solver.matrix_precision
     ]
+    solver.preconditioner = {
+        "auto": _solver.Preconditioner.AUTO,
+        "block_jacobi": _solver.Preconditioner.BLOCK_JACOBI,
+        "multigrid": _solver.Preconditioner.MULTIGRID,
+    }[shot.solver.preconditioner]
     setup.solver = solver
     setup.collision = collision_settings(scene)
     return setup

@@ -43,7 +43,8 @@ PYBIND11_MODULE(_solver, m) {
       .def_readwrite("max_substep_halvings", &SolverSettings::max_substep_halvings)
       .def_readwrite("threads", &SolverSettings::threads)
       .def_readwrite("linear_system", &SolverSettings::linear_system)
-      .def_readwrite("matrix_precision", &SolverSettings::matrix_precision);
+      .def_readwrite("matrix_precision", &SolverSettings::matrix_precision)
+      .def_readwrite("preconditioner", &SolverSettings::preconditioner);
 
   py::class_<SimulationSetup>(m, "SimulationSetup")
       .def(py::init<>())

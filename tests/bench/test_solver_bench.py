@@ -24,6 +24,12 @@ def fake_result() -> dict:
                                 "solve_speedup": 4.0, "sim_speedup": 3.5, "same_system_fast_pcg_seconds": 0.05,
                                 "same_system_fast_pcg_iterations": 300, "same_system_eigen_cg_seconds": 0.1,
                                 "same_system_eigen_cg_iterations": 320, "eigen_cg_over_fast_pcg": 2.0}))
+        records.append(dict(common, path="fast+multigrid", preconditioner="multigrid", precision="float32",
+                            measured="1 frame", build_s_per_frame=0.1, solve_s_per_frame=0.05, sim_s_per_frame=0.16,
+                            s_per_step=0.04, cg_iterations_per_step=18.5, extra={
+                                "multigrid_setup_s_per_frame": 0.01, "multigrid_rows": [vertices, vertices // 9, 40],
+                                "multigrid_operator_complexity": 1.24, "solve_speedup_over_block_jacobi": 4.0,
+                                "sim_speedup_over_block_jacobi": 1.94}))
         records.append(dict(common, path="reference", precision="float64", measured="1 of 4 steps, scaled",
                             build_s_per_frame=0.3, solve_s_per_frame=0.8, sim_s_per_frame=1.1, s_per_step=0.275,
                             cg_iterations_per_step=320.0, extra={}))
@@ -35,6 +41,8 @@ def test_format_tables_has_every_section() -> None:
     text = format_tables(fake_result())
     assert "| sheet-10000 | 10000 | fast (float32) |" in text
     assert "Eigen CG double" in text and "Growth exponent" in text and "67% fewer" in text
+    assert "| | | multigrid | 18.5 | 0.010 | 0.050 | 0.160 | 4.00 | 1.94 | 10000 / 1111 / 40 | 1.24 |" in text
+    assert "with multigrid, of s/step: 0.00" in text
     assert abs(growth_exponent([1.0, 2.0, 4.0], [3.0, 6.0, 12.0]) - 1.0) < 1e-12
 
 
@@ -45,7 +53,10 @@ def test_bench_solver_command_passes_its_options_to_the_bench(monkeypatch, tmp_p
     monkeypatch.setattr(bench.solver_bench, "main", lambda **kwargs: calls.append(kwargs))
     result = CliRunner().invoke(app, ["bench", "solver", "--threads", "3", "--json", str(tmp_path / "b.json"), "--quick"])
     assert result.exit_code == 0, result.output
-    assert calls == [{"threads": 3, "json_path": tmp_path / "b.json", "quick": True}]
+    assert calls == [{"threads": 3, "json_path": tmp_path / "b.json", "quick": True, "sides": None}]
+    result = CliRunner().invoke(app, ["bench", "solver", "--sizes", "16,32"])
+    assert result.exit_code == 0, result.output
+    assert calls[-1]["sides"] == [16, 32]
 
 
 def test_bench_ccd_runs_with_zero_false_negatives() -> None:

@@ -20,11 +20,13 @@ def solver(
     threads: Annotated[int, typer.Option("--threads", min=1, max=256, help="Solver threads")] = 2,
     json_path: Annotated[Optional[Path], typer.Option("--json", help="Also write every figure as JSON here")] = None,
     quick: Annotated[bool, typer.Option("--quick", help="Two small sheets only (a smoke test)")] = False,
+    sizes: Annotated[str, typer.Option("--sizes", help="Sheet sides instead, e.g. 16,32,64 (one frame each)")] = "",
 ) -> None:
-    """Fast vs reference linear system on 10k-640k vertex sheets (the seed's Table 1 shape)."""
+    """Fast (block Jacobi and multigrid) vs reference linear system on 10k-640k vertex sheets
+    (the seed's Table 1 shape)."""
     from bench.solver_bench import main
 
-    main(threads=threads, json_path=json_path, quick=quick)
+    main(threads=threads, json_path=json_path, quick=quick, sides=_sizes(sizes) or None)
 
 
 @app.command("ccd")

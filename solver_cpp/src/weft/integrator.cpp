@@ -75,7 +75,7 @@ Simulation::Simulation(const SimulationSetup& s)
   dv_.setZero(3 * n);
   filter_.reset(n);
   LinearSystemOptions linear{settings_.linear_system, settings_.matrix_precision, settings_.threads,
-                             PcgSettings{settings_.cg_tolerance, settings_.cg_max_iterations}};
+                             PcgSettings{settings_.cg_tolerance, settings_.cg_max_iterations}, settings_.preconditioner};
   linear_ = make_linear_system(mesh_, *force_model_, linear,
                                static_cast<int>(pins_.fixed.size() + pins_.attached.size()));
   if (s.collision.enabled) {

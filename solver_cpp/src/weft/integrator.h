@@ -21,6 +21,7 @@ struct SolverSettings {
   int threads = 1;
   LinearSystemKind linear_system = LinearSystemKind::kFast;  // fast | reference (linear_system_path.h)
   MatrixPrecision matrix_precision = MatrixPrecision::kFloat32;  // fast path's matrix values
+  Preconditioner preconditioner = Preconditioner::kAuto;  // fast path's CG preconditioner (multigrid.h)
   // Adaptive substepping: a substep whose collision stage leaves colliding pairs unresolved is
   // redone as two halves, at most this many halvings deep (0: never). Before the deepest level
   // the impact-zone fail-safe gets a quarter of its pass budget, so a hard step is split

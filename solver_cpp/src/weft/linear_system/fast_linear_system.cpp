@@ -4,6 +4,8 @@
 #include <numeric>
 #include <stdexcept>
 
+#include "weft/common/timer.h"
+
 namespace weft {
 
 template <class Scalar>
@@ -188,6 +190,18 @@ PcgStats FastLinearSystem<Scalar>::solve(const ConstraintFilter& filter, VectorX
 
 template <class Scalar>
 PcgStats FastLinearSystem<Scalar>::solve_with(const ConstraintFilter& filter, VectorX& dv, const PcgSettings& pcg) {
+  return solve_with(filter, dv, pcg, options_.preconditioner);
+}
+
+template <class Scalar>
+bool FastLinearSystem<Scalar>::uses_multigrid(Preconditioner preconditioner) const {
+  return preconditioner == Preconditioner::kMultigrid ||
+         (preconditioner == Preconditioner::kAuto && mesh_.vertex_count >= kMultigridAutoVertices);
+}
+
+template <class Scalar>
+PcgStats FastLinearSystem<Scalar>::solve_with(const ConstraintFilter& filter, VectorX& dv, const PcgSettings& pcg,
+                                              Preconditioner preconditioner) {
   const int n = mesh_.vertex_count;
   // Each CG iteration has three barriers; below a few thousand rows they cost more than the
   // work they split (and far more on a loaded machine), so small systems solve on one thread.
@@ -207,10 +221,52 @@ PcgStats FastLinearSystem<Scalar>::solve_with(const ConstraintFilter& filter, Ve
     out.resize(in.size());
     matrix_.multiply(in.data(), out.data(), threads, chunk_dots);
   };
-  const PcgStats stats = prefiltered_pcg(apply, diagonal_, permuted_filter_, rhs_, permuted_dv_, pcg, threads);
+  PcgStats stats;
+  ++solves_;
+  last_multigrid_ = uses_multigrid(preconditioner) && prepare_multigrid(threads);
+  if (last_multigrid_) {
+    const double setup = multigrid_last_setup_seconds_;
+    auto cycle = [this, threads](const VectorX& r, VectorX& z) { multigrid_->apply(r, z, threads); };
+    stats = prefiltered_pcg(apply, diagonal_, permuted_filter_, rhs_, permuted_dv_, pcg, threads, cycle);
+    stats.preconditioner_setup_seconds = setup;
+  } else {
+    stats = prefiltered_pcg(apply, diagonal_, permuted_filter_, rhs_, permuted_dv_, pcg, threads);
+  }
 #pragma omp parallel for schedule(static) num_threads(threads)
   for (int r = 0; r < n; ++r) dv.segment<3>(3 * order_[r]) = permuted_dv_.segment<3>(3 * r);
   return stats;
+}
+
+template <class Scalar>
+bool FastLinearSystem<Scalar>::prepare_multigrid(int threads) {
+  if (multigrid_unusable_) return false;
+  Timer timer;
+  if (!multigrid_) {
+    // Strength of connection: the triangle edges (stretch and shear); couplings through a
+    // hinge alone (bending) are weak. Pattern-only, so a resumed run aggregates the same.
+    std::vector<std::pair<int, int>> edges;
+    edges.reserve(3 * static_cast<size_t>(mesh_.faces.rows()));
+    for (Eigen::Index f = 0; f < mesh_.faces.rows(); ++f)
+      for (int c = 0; c < 3; ++c)
+        edges.emplace_back(new_of_old_[mesh_.faces(f, c)], new_of_old_[mesh_.faces(f, (c + 1) % 3)]);
+    try {
+      multigrid_ = std::make_unique<SmoothedAggregation>(
+          SmoothedAggregation::from_pattern(matrix_, graph_from_edges(mesh_.vertex_count, edges)));
+    } catch (const std::invalid_argument&) {  // no useful hierarchy (coarsening stalled)
+      multigrid_unusable_ = true;
+      return false;
+    }
+    multigrid_structure_seconds_ = timer.seconds();
+    timer.restart();
+  }
+  try {
+    multigrid_->update(matrix_, permuted_filter_, threads);
+  } catch (const std::runtime_error&) {  // coarsest level not SPD (a broken matrix)
+    return false;
+  }
+  multigrid_last_setup_seconds_ = timer.seconds();
+  multigrid_setup_seconds_ += multigrid_last_setup_seconds_;
+  return true;
 }
 
 template <class Scalar>
@@ -237,6 +293,14 @@ LinearSystemInfo FastLinearSystem<Scalar>::info() const {
   i.blocks = static_cast<long long>(matrix_.block_count());
   i.transient_blocks = static_cast<long long>(matrix_.transient_block_count());
   i.bytes_per_multiply = matrix_.bytes_per_multiply();
+  i.preconditioner = last_multigrid_ ? "multigrid" : "block_jacobi";
+  if (multigrid_) {
+    i.multigrid_rows = multigrid_->level_rows();
+    i.multigrid_operator_complexity = multigrid_->operator_complexity();
+  }
+  i.multigrid_structure_seconds = multigrid_structure_seconds_;
+  i.multigrid_setup_seconds = multigrid_setup_seconds_;
+  i.solves = solves_;
   return i;
 }
 

@@ -8,7 +8,8 @@
 // element slots in their fixed list order (double accumulation, one rounding to Scalar) and
 // merges transient entries that overlap the pattern; the rest become the transient part.
 // Solve: the filter, rhs and warm start are permuted into RCM order and the pre-filtered PCG
-// (pcg.h) runs with the BCRS SpMV (bcrs.h).
+// (pcg.h) runs with the BCRS SpMV (bcrs.h), preconditioned by block Jacobi or by smoothed-
+// aggregation multigrid (multigrid.h; structure built at the first solve, values every solve).
 #pragma once
 
 #include <Eigen/SparseCore>
@@ -16,6 +17,7 @@
 #include "weft/linear_system/bcrs.h"
 #include "weft/forces/force_elements.h"
 #include "weft/linear_system/linear_system_path.h"
+#include "weft/linear_system/multigrid.h"
 #include "weft/linear_system/rcm.h"
 
 namespace weft {
@@ -44,8 +46,15 @@ class FastLinearSystem final : public LinearSystemPath {
   VectorX rhs_original() const;
   // Solves the last built system from `dv` (original order) with pcg settings `pcg`.
   PcgStats solve_with(const ConstraintFilter& filter, VectorX& dv, const PcgSettings& pcg);
+  PcgStats solve_with(const ConstraintFilter& filter, VectorX& dv, const PcgSettings& pcg, Preconditioner preconditioner);
+  bool uses_multigrid(Preconditioner preconditioner) const;
+  const SmoothedAggregation* multigrid() const { return multigrid_.get(); }
 
  private:
+  // Builds the hierarchy's structure (first call) and values for the permuted filter; false
+  // when multigrid cannot be used (block Jacobi then). Times into the multigrid_*_seconds_.
+  bool prepare_multigrid(int threads);
+
   const ClothMesh& mesh_;
   const ForceModel& model_;
   LinearSystemOptions options_;
@@ -66,6 +75,11 @@ class FastLinearSystem final : public LinearSystemPath {
   std::vector<Mat3> diagonal_;
   ConstraintFilter permuted_filter_;
   VectorX permuted_dv_;
+  std::unique_ptr<SmoothedAggregation> multigrid_;
+  double multigrid_structure_seconds_ = 0.0, multigrid_setup_seconds_ = 0.0, multigrid_last_setup_seconds_ = 0.0;
+  long long solves_ = 0;
+  bool last_multigrid_ = false;
+  bool multigrid_unusable_ = false;  // the pattern gave no hierarchy: block Jacobi
 };
 
 }  // namespace weft

@@ -9,6 +9,7 @@
 
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "weft/forces/forces.h"
 #include "weft/linear_system/pcg.h"
@@ -18,12 +19,17 @@ namespace weft {
 
 enum class LinearSystemKind { kFast, kReference };
 enum class MatrixPrecision { kFloat32, kFloat64 };
+// CG preconditioner of the fast path (the reference path always uses Eigen's Jacobi):
+// kAuto picks smoothed-aggregation multigrid from kMultigridAutoVertices vertices on.
+enum class Preconditioner { kAuto, kBlockJacobi, kMultigrid };
+constexpr int kMultigridAutoVertices = 1000;  // measured: docs/multigrid.md
 
 struct LinearSystemOptions {
   LinearSystemKind kind = LinearSystemKind::kFast;
   MatrixPrecision precision = MatrixPrecision::kFloat32;
   int threads = 1;
   PcgSettings pcg;
+  Preconditioner preconditioner = Preconditioner::kAuto;
 };
 
 // What the path built; for reports and benchmarks.
@@ -38,6 +44,12 @@ struct LinearSystemInfo {
   long long blocks = 0;                 // 3x3 blocks of the fixed pattern
   long long transient_blocks = 0;       // outside the fixed pattern, last step
   double bytes_per_multiply = 0.0;      // SpMV memory traffic (fast)
+  std::string preconditioner = "block_jacobi";  // in use: "block_jacobi" or "multigrid"
+  std::vector<int> multigrid_rows;      // 3x3 rows per level, finest first (multigrid)
+  double multigrid_operator_complexity = 0.0;  // blocks of all levels / blocks of the finest
+  double multigrid_structure_seconds = 0.0;    // aggregation and patterns, once
+  double multigrid_setup_seconds = 0.0;        // values of the hierarchy, summed over solves
+  long long solves = 0;                        // solves so far
 };
 
 class LinearSystemPath {

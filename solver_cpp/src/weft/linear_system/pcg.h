@@ -5,11 +5,13 @@
 // PCG we solve the symmetric system
 //     (S A S + I - S) y = S (b - A z),    x = y + z,
 // so constraints hold exactly (y has no component in constrained directions) and any SPD
-// preconditioner applies. The preconditioner here is 3x3 block Jacobi of the filtered matrix.
+// preconditioner applies: 3x3 block Jacobi of the filtered matrix (fused into the vector pass),
+// or a caller's SPD operator B applied as z = S B S r (multigrid.h).
 #pragma once
 
 #include <Eigen/Dense>
 #include <cmath>
+#include <cstddef>
 #include <limits>
 #include <type_traits>
 
@@ -56,6 +58,7 @@ struct PcgStats {
   int iterations = 0;
   double relative_residual = 0.0;
   bool converged = false;
+  double preconditioner_setup_seconds = 0.0;  // multigrid: hierarchy values (and structure, first solve)
 };
 
 // apply_matrix(in, out) computes out = A in (out already sized). It may instead take a third
@@ -65,10 +68,13 @@ struct PcgStats {
 // entry and the solution on exit. Vector updates run on `threads` threads; every dot product is
 // a fixed-order chunked sum (ordered_sum.h), so the iterates are bitwise independent of the
 // thread count. The filter is applied only at its constrained vertices.
-template <class ApplyMatrix>
+// precondition: nullptr for block Jacobi of the filtered diagonal blocks, or a callable
+// (const VectorX& r, VectorX& z) applying an SPD operator B; CG then uses z = S B S r.
+template <class ApplyMatrix, class Precondition = std::nullptr_t>
 PcgStats prefiltered_pcg(const ApplyMatrix& apply_matrix, const std::vector<Mat3>& diagonal_blocks,
                          const ConstraintFilter& filter, const VectorX& b, VectorX& x, const PcgSettings& settings,
-                         int threads = 1) {
+                         int threads = 1, const Precondition& precondition = nullptr) {
+  constexpr bool custom = !std::is_same_v<Precondition, std::nullptr_t>;
   const Eigen::Index n = b.size();
   const std::int64_t vertex_count = n / 3;
   PcgStats stats;
@@ -133,13 +139,27 @@ PcgStats prefiltered_pcg(const ApplyMatrix& apply_matrix, const std::vector<Mat3
   })[0]);
 
   // Block-Jacobi preconditioner of S A S + I - S.
-  std::vector<Mat3> inverse_blocks(vertex_count);
+  std::vector<Mat3> inverse_blocks(custom ? 0 : vertex_count);
+  if constexpr (!custom) {
 #pragma omp parallel for schedule(static) num_threads(threads)
-  for (std::int64_t i = 0; i < vertex_count; ++i) inverse_blocks[i] = diagonal_blocks[i].inverse();
-  for (int i : constrained) {
-    const Mat3& s = filter.projection[i];
-    inverse_blocks[i] = (s * diagonal_blocks[i] * s + (Mat3::Identity() - s)).inverse();
+    for (std::int64_t i = 0; i < vertex_count; ++i) inverse_blocks[i] = diagonal_blocks[i].inverse();
+    for (int i : constrained) {
+      const Mat3& s = filter.projection[i];
+      inverse_blocks[i] = (s * diagonal_blocks[i] * s + (Mat3::Identity() - s)).inverse();
+    }
   }
+  // Caller's preconditioner: z = S B S r; returns r . z (fixed order).
+  auto precondition_dot = [&]() {
+    if constexpr (custom) {
+      tmp = r;
+      apply_filter(tmp);
+      precondition(tmp, z);
+      apply_filter(z);
+    }
+    return vertex_sums(One{}, [&](std::int64_t i, std::array<double, 1>& s) {
+      s[0] += r.segment<3>(3 * i).dot(z.segment<3>(3 * i));
+    })[0];
+  };
 
   y = x;
   apply_filter(y);
@@ -163,13 +183,19 @@ PcgStats prefiltered_pcg(const ApplyMatrix& apply_matrix, const std::vector<Mat3
   // r = rhs - S A S y; z = P r; p = z.
   auto start = vertex_sums(Two{}, [&](std::int64_t i, std::array<double, 2>& s) {
     const Vec3 ri = rhs.segment<3>(3 * i) - tmp.segment<3>(3 * i);
-    const Vec3 zi = inverse_blocks[i] * ri;
     r.segment<3>(3 * i) = ri;
-    z.segment<3>(3 * i) = zi;
-    p.segment<3>(3 * i) = zi;
     s[0] += ri.squaredNorm();
-    s[1] += ri.dot(zi);
+    if constexpr (!custom) {
+      const Vec3 zi = inverse_blocks[i] * ri;
+      z.segment<3>(3 * i) = zi;
+      p.segment<3>(3 * i) = zi;
+      s[1] += ri.dot(zi);
+    }
   });
+  if constexpr (custom) {
+    start[1] = precondition_dot();
+    p = z;
+  }
   double residual_norm = std::sqrt(start[0]);
   double rz = start[1];
   while (residual_norm > settings.tolerance * rhs_norm && stats.iterations < settings.max_iterations) {
@@ -177,17 +203,24 @@ PcgStats prefiltered_pcg(const ApplyMatrix& apply_matrix, const std::vector<Mat3
     if (!(pq > 0.0)) break;  // loss of positive definiteness or breakdown: keep what we have
     const double alpha = rz / pq;
     // y += alpha p; r -= alpha q; z = P r; with |r|^2 and r.z in the same pass.
-    const auto sums = vertex_sums(Two{}, [&](std::int64_t i, std::array<double, 2>& s) {
+    auto sums = vertex_sums(Two{}, [&](std::int64_t i, std::array<double, 2>& s) {
       y.segment<3>(3 * i) += alpha * p.segment<3>(3 * i);
       const Vec3 ri = r.segment<3>(3 * i) - alpha * q.segment<3>(3 * i);
-      const Vec3 zi = inverse_blocks[i] * ri;
       r.segment<3>(3 * i) = ri;
-      z.segment<3>(3 * i) = zi;
       s[0] += ri.squaredNorm();
-      s[1] += ri.dot(zi);
+      if constexpr (!custom) {
+        const Vec3 zi = inverse_blocks[i] * ri;
+        z.segment<3>(3 * i) = zi;
+        s[1] += ri.dot(zi);
+      }
     });
     residual_norm = std::sqrt(sums[0]);
     ++stats.iterations;
+    if constexpr (custom) {  // a V-cycle is worth skipping after the last iteration
+      if (residual_norm <= settings.tolerance * rhs_norm || stats.iterations >= settings.max_iterations) break;
+      sums[1] = precondition_dot();
+      if (!(sums[1] > 0.0)) break;  // B not positive on r: breakdown, keep what we have
+    }
     const double beta = sums[1] / rz;
     rz = sums[1];
 #pragma omp parallel for schedule(static) num_threads(threads)

@@ -1,0 +1,141 @@
+// Smoothed-aggregation algebraic multigrid (Tamstorf, Jones & McCormick, "Smoothed Aggregation
+// Multigrid for Cloth Simulation", SIGGRAPH Asia 2015) as the preconditioner of the pre-filtered
+// PCG (pcg.h), for the 3x3-block system of the fast linear system.
+//
+// The hierarchy sees the filtered operator  A0 = S A S + I - S  (S: per-vertex projection onto
+// the unconstrained directions). Per level l, with B_i the near-null-space block of node i (3x3:
+// the three rigid translations; on the finest level B_i = S_i, i.e. filtered):
+//   aggregates    greedy standard aggregation on a strength graph, nodes in row (RCM) order
+//                 (fine level: the triangle edges; coarse levels: the coarse matrix pattern);
+//   tentative     T_iJ = B_i G_J^(-1/2) for i in aggregate J, G_J = sum B_i^T B_i (a symmetric
+//                 orthonormalisation, the QR of classic SA; directions with G_J = 0, e.g. an
+//                 aggregate of pinned vertices, are dropped: Q_J = projection onto range(G_J));
+//   prolongator   P = (I - omega D^-1 A) T, omega = 4 / (3 rho), rho ~ rho(D^-1 A) by a few
+//                 Lanczos steps (D: the 3x3 diagonal blocks);
+//   coarse        A_c = P^T A P + (I - Q): the same pre-filtered form one level down, so every
+//                 level is SPD; B_c,J = G_J^(1/2).
+// Level operators are stored in float32 (values rounded once, symmetric bit for bit; setup
+// arithmetic in double, the cycle's products by the BCRS float32 kernel); prolongators in double. Coarsest level: dense Cholesky (Eigen LLT). Cycle: V(1,1) with Chebyshev smoothing of
+// D^-1 A on [upper / 30, upper], upper = 1.1 rho, the same polynomial before and after the
+// coarse correction, so the cycle is a symmetric positive-definite operator and CG stays valid.
+//
+// Structure (aggregates, patterns of P, A P, P^T, A_c) is built once from the fixed block
+// pattern; values (filter, rho, T, P, A_c, Cholesky) are recomputed by update() each solve,
+// since the matrix and the filter (contacts) change every substep. Only the fixed pattern enters
+// the hierarchy: transient blocks outside it (contact springs) are left to CG's own product,
+// which keeps the preconditioner SPD (a spring minus its off-diagonal blocks is still PSD).
+// Every row is computed by one thread in a fixed order and every dot product is an ordered sum
+// (ordered_sum.h): bitwise identical for any thread count.
+#pragma once
+
+#include <Eigen/Cholesky>
+#include <vector>
+
+#include "weft/common/types.h"
+#include "weft/linear_system/bcrs.h"
+#include "weft/linear_system/pcg.h"
+#include "weft/linear_system/rcm.h"
+
+namespace weft {
+
+using Mat3f = Eigen::Matrix3f;
+
+// Block compressed rows of 3x3 blocks (values of type T), absolute sorted columns.
+template <class T>
+struct BlockRowsOf {
+  using Block = Eigen::Matrix<T, 3, 3>;
+  int rows = 0, cols = 0;
+  std::vector<int> start{0};
+  std::vector<int> column;
+  std::vector<Block> value;
+  // y = M x in double; rows split over threads, each row summed in column order.
+  void multiply(const VectorX& x, VectorX& y, int threads) const;
+};
+using BlockRows = BlockRowsOf<double>;    // prolongators, restrictions, A P
+using BlockRowsF = BlockRowsOf<float>;    // level operators: float32 values, double arithmetic
+
+struct MultigridOptions {
+  int coarse_rows = 64;         // stop coarsening at or below this many 3x3 rows
+  int max_levels = 10;
+  int smoother_degree = 2;      // Chebyshev degree of the pre- and of the post-smoothing
+  int lanczos_steps = 10;       // for rho(D^-1 A) per level and solve
+  double upper_factor = 1.1;    // Chebyshev upper bound = upper_factor * rho
+  double lower_ratio = 1.0 / 30.0;  // Chebyshev lower bound = lower_ratio * upper bound
+};
+
+class SmoothedAggregation {
+ public:
+  // Fine pattern in row order (row_start, sorted absolute columns with the diagonal) and the
+  // strength graph of the finest level (same numbering).
+  SmoothedAggregation(const std::vector<int>& row_start, const std::vector<int>& columns, const Graph& strength,
+                      const MultigridOptions& options = {});
+  template <class Scalar>
+  static SmoothedAggregation from_pattern(const BcrsMatrix<Scalar>& a, const Graph& strength,
+                                          const MultigridOptions& options = {});
+
+  // Values of every level for the fixed part of `a` filtered by `filter` (row order).
+  template <class Scalar>
+  void update(const BcrsMatrix<Scalar>& a, const ConstraintFilter& filter, int threads);
+  // Same, from the unfiltered fine blocks (in the pattern's block order) - tests.
+  void update_blocks(const std::vector<Mat3>& fine_blocks, const ConstraintFilter& filter, int threads);
+  // z = B r: one V(1,1) cycle from zero. The caller filters r and z (pcg.h).
+  void apply(const VectorX& r, VectorX& z, int threads) const;
+
+  int levels() const { return static_cast<int>(levels_.size()); }
+  std::vector<int> level_rows() const;
+  double operator_complexity() const;  // blocks of all levels / blocks of the finest
+  const BlockRowsF& level_matrix(int l) const { return levels_[l].a; }
+  double spectral_radius(int l) const { return levels_[l].rho; }
+
+ private:
+  struct Level {
+    BlockRowsF a;                      // operator: values per update(), float32 (half the bytes)
+    BcrsMatrix<float> kernel;          // the same values for the cycle's products (bcrs.h SSE kernel)
+    std::vector<int> diagonal;         // block index of each row's diagonal
+    std::vector<int> transpose;        // block index of (column, row) for each block
+    std::vector<Mat3> inverse_diagonal;
+    std::vector<Mat3> near_null;       // B_i
+    std::vector<int> aggregate;        // node -> coarse node (not on the coarsest level)
+    std::vector<int> member_start, members;  // aggregates' nodes, in order
+    BlockRows p, r, ap;                // prolongator, restriction P^T, A P
+    std::vector<int> r_source;         // r.value[k] = p.value[r_source[k]]^T
+    std::vector<Mat3> tentative;       // T_i (row i's block of T, column aggregate[i])
+    std::vector<Mat3> kept;            // Q_J of the coarse nodes (range of G_J)
+    double rho = 1.0;
+    mutable VectorX x, f, res, d, t, rr;  // V-cycle work vectors
+  };
+  bool coarsen_structure(int l, const Graph& strength);
+  void update_values(const ConstraintFilter& filter, int threads);  // level 0's blocks already copied
+  void update_level_values(int l, int threads);
+  void finish_level(int l, int threads);  // copies level l's operator values into its kernel
+  double estimate_spectral_radius(const Level& level, int threads, int steps) const;
+  void smooth(const Level& level, const VectorX& f, VectorX& x, bool zero_start, int threads) const;
+  void cycle(int l, int threads) const;
+
+  MultigridOptions options_;
+  std::vector<Level> levels_;
+  Eigen::LLT<Eigen::MatrixXd> coarse_solver_;
+};
+
+template <class Scalar>
+SmoothedAggregation SmoothedAggregation::from_pattern(const BcrsMatrix<Scalar>& a, const Graph& strength,
+                                                      const MultigridOptions& options) {
+  std::vector<int> start(a.rows() + 1), columns;
+  columns.reserve(a.block_count());
+  for (int r = 0; r < a.rows(); ++r) {
+    for (int k = a.row_begin(r); k < a.row_end(r); ++k) columns.push_back(a.column(k, r));
+    start[r + 1] = static_cast<int>(columns.size());
+  }
+  return SmoothedAggregation(start, columns, strength, options);
+}
+
+template <class Scalar>
+void SmoothedAggregation::update(const BcrsMatrix<Scalar>& a, const ConstraintFilter& filter, int threads) {
+  std::vector<Mat3f>& blocks = levels_[0].a.value;
+#pragma omp parallel for schedule(static) num_threads(threads)
+  for (std::int64_t k = 0; k < static_cast<std::int64_t>(blocks.size()); ++k)
+    blocks[k] = Eigen::Map<const Eigen::Matrix<Scalar, 3, 3>>(a.block(static_cast<int>(k))).template cast<float>();
+  update_values(filter, threads);
+}
+
+}  // namespace weft
