@@ -83,7 +83,7 @@ Simulation::Simulation(const SimulationSetup& s)
     for (const FixedPin& pin : pins_.fixed) pinned.push_back(pin.vertex);
     for (const BodyPin& pin : pins_.attached) pinned.push_back(pin.vertex);
     collisions_ = std::make_unique<CollisionSystem>(mesh_.faces, x_, vertex_mass(), pinned, bodies_, s.collision,
-                                                    settings_.threads, face_rest_edge_lengths(mesh_));
+                                                    settings_.threads, mesh_.rest_edge_length);
   }
 }
 

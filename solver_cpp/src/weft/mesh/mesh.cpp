@@ -34,6 +34,7 @@ ClothMesh build_cloth_mesh(int vertex_count, const Faces& faces, const FaceUVs& 
 
   mesh.rest_dm_inverse.resize(face_count);
   mesh.rest_area.resize(face_count);
+  mesh.rest_edge_length.resize(face_count);
   mesh.vertex_rest_area.assign(vertex_count, 0.0);
   for (int f = 0; f < face_count; ++f) {
     for (int c = 0; c < 3; ++c) {
@@ -54,6 +55,7 @@ ClothMesh build_cloth_mesh(int vertex_count, const Faces& faces, const FaceUVs& 
       throw MeshError("face " + std::to_string(f) + " has zero rest area");
     mesh.rest_dm_inverse[f] = dm.inverse();
     mesh.rest_area[f] = 0.5 * std::abs(det);
+    mesh.rest_edge_length[f] = {dm.col(0).norm(), (dm.col(1) - dm.col(0)).norm(), dm.col(1).norm()};
     for (int c = 0; c < 3; ++c) mesh.vertex_rest_area[faces(f, c)] += mesh.rest_area[f] / 3.0;
   }
 
@@ -97,17 +99,8 @@ ClothMesh build_cloth_mesh(int vertex_count, const Faces& faces, const FaceUVs& 
   return mesh;
 }
 
-std::vector<std::array<double, 3>> face_rest_edge_lengths(const ClothMesh& mesh) {
-  std::vector<std::array<double, 3>> out(mesh.faces.rows());
-  for (Eigen::Index f = 0; f < mesh.faces.rows(); ++f) {
-    const Mat2 dm = mesh.rest_dm_inverse[f].inverse();  // columns: rest edges v0->v1, v0->v2 in (u,v)
-    out[f] = {dm.col(0).norm(), (dm.col(1) - dm.col(0)).norm(), dm.col(1).norm()};
-  }
-  return out;
-}
-
 double max_edge_strain(const ClothMesh& mesh, const Positions& x) {
-  const std::vector<std::array<double, 3>> rest = face_rest_edge_lengths(mesh);
+  const auto& rest = mesh.rest_edge_length;
   double strain = 0.0;
   for (Eigen::Index f = 0; f < mesh.faces.rows(); ++f)
     for (int c = 0; c < 3; ++c) {

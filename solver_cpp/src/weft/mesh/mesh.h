@@ -21,6 +21,8 @@ struct ClothMesh {
   // Dm = [uv1 - uv0, uv2 - uv0], and the rest area in m^2.
   std::vector<Mat2> rest_dm_inverse;
   std::vector<double> rest_area;
+  // Per triangle, the rest lengths of its edges (v0,v1), (v1,v2), (v2,v0).
+  std::vector<std::array<double, 3>> rest_edge_length;
 
   // Per hinge: vertices, rest dihedral angle (radians), and the discrete-shell weight
   // 3 |e|^2 / (A_0 + A_1) from the rest state.
@@ -47,9 +49,6 @@ struct MeshError : std::invalid_argument {
 using FaceUVs = Eigen::Matrix<double, Eigen::Dynamic, 6, Eigen::RowMajor>;
 ClothMesh build_cloth_mesh(int vertex_count, const Faces& faces, const FaceUVs& face_uv,
                            const Positions& rest_positions);
-
-// Per triangle, the rest lengths of its edges (v0,v1), (v1,v2), (v2,v0), from its rest frame.
-std::vector<std::array<double, 3>> face_rest_edge_lengths(const ClothMesh& mesh);
 
 // Largest ratio of an edge's length in x to its rest length (from the triangles' rest frames),
 // over every edge of every triangle: 1 at rest, 1.5 for an edge stretched by half.
