@@ -74,6 +74,9 @@ class FrameTelemetry(BaseModel):
         0, description="edge corrections of the strain limit before CCD, summed over passes and substeps")
     subdivided_substeps: int = Field(
         0, description="substeps redone as two halves because their collision stage left pairs unresolved")
+    # The preconditioner's share of the solve (issue 13); appended like the columns above.
+    setup_seconds: float = Field(
+        0.0, description="of solve_seconds: the preconditioner's setup (multigrid hierarchy values), summed over substeps")
 
 
 _DTYPES = {int: "i4", float: "f8"}

@@ -80,7 +80,8 @@ PYBIND11_MODULE(_solver, m) {
       .def_readonly("kinetic_energy", &FrameTelemetry::kinetic_energy)
       .def_readonly("potential_energy", &FrameTelemetry::potential_energy)
       .def_readonly("max_edge_strain", &FrameTelemetry::max_edge_strain)
-      .def_readonly("subdivided_substeps", &FrameTelemetry::subdivided_substeps);
+      .def_readonly("subdivided_substeps", &FrameTelemetry::subdivided_substeps)
+      .def_readonly("setup_seconds", &FrameTelemetry::setup_seconds);
 
   py::class_<Energies>(m, "Energies")
       .def_readonly("kinetic", &Energies::kinetic)

@@ -78,6 +78,7 @@ CollisionSystem::CollisionSystem(const Faces& cloth_faces, const Positions& x, c
       props_(ContactProperties::from_faces(cloth_faces, settings_.face_thickness, settings_.face_friction, vertex_mass,
                                            pinned_vertices)),
       detection_(make_detection(settings_, cloth_faces, x, bodies, props_)), ccd_(threads_) {
+  detection_.set_threads(threads_);
   const int vertex_count = static_cast<int>(x.rows());
   step_.body_start.resize(bodies.size());
   step_.body_end.resize(bodies.size());
@@ -205,11 +206,12 @@ void CollisionSystem::respond(const Positions& x, Positions& v, double h, const 
 
 int CollisionSystem::count_intersections(const Positions& x, const std::vector<KinematicBody>& bodies) const {
   int total = 0;
-  if (detection_.any_self()) total += count_self_intersections(x, detection_.cloth_faces(), detection_.face_self());
+  if (detection_.any_self())
+    total += count_self_intersections(x, detection_.cloth_faces(), detection_.face_self(), nullptr, threads_);
   for (size_t b = 0; b < detection_.bodies().size(); ++b)
     if (detection_.bodies()[b].collide)
       total += weft::count_intersections(x, detection_.cloth_faces(), bodies[b].frame_end(),
-                                         detection_.bodies()[b].faces, detection_.face_collide());
+                                         detection_.bodies()[b].faces, detection_.face_collide(), nullptr, threads_);
   return total;
 }
 

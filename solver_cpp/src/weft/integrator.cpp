@@ -147,6 +147,7 @@ Simulation::StepTimings Simulation::step(double time, double h, double alpha_end
   }
   flat(x_) += h * flat(v_);
   t.solve = solve_timer.seconds() - t.collision;
+  t.setup = stats.preconditioner_setup_seconds;
   t.iterations = stats.iterations;
   t.residual = stats.relative_residual;
   t.converged = stats.converged;
@@ -174,6 +175,7 @@ void Simulation::substep(double time, double h, double alpha0, double alpha1, in
   if (can_halve) collisions_->limit_zone_passes(0);
   telemetry.build_seconds += t.build;
   telemetry.solve_seconds += t.solve;
+  telemetry.setup_seconds += t.setup;
   telemetry.cg_iterations += t.iterations;
   if (can_halve && collisions_->unresolved() > unresolved_before) {
     // The fail-safe ran out: redo the step as two halves from where it started (the attempt's

@@ -16,7 +16,7 @@
 namespace weft {
 
 struct SolverSettings {
-  double cg_tolerance = 1e-5;
+  double cg_tolerance = 1e-5;  // the library's (tests'); a shot's default is 1e-3 (api_schemas/shot.py)
   int cg_max_iterations = 500;
   int threads = 1;
   LinearSystemKind linear_system = LinearSystemKind::kFast;  // fast | reference (linear_system_path.h)
@@ -50,6 +50,7 @@ struct SimulationSetup {
 struct FrameTelemetry {
   double build_seconds = 0.0;
   double solve_seconds = 0.0;
+  double setup_seconds = 0.0;  // of solve_seconds: the preconditioner's (multigrid hierarchy values)
   double collision_seconds = 0.0;
   double gia_seconds = 0.0;
   double total_seconds = 0.0;
@@ -108,7 +109,7 @@ class Simulation {
 
  private:
   struct StepTimings {
-    double build = 0.0, solve = 0.0;
+    double build = 0.0, solve = 0.0, setup = 0.0;
     int iterations = 0;
     double residual = 0.0;
     bool converged = true;

@@ -63,6 +63,8 @@ class ContactDetection {
   const std::vector<Body>& bodies() const { return bodies_; }
   bool any_self() const { return any_self_; }
   bool any_body() const { return any_body_; }
+  // Threads of the narrow filtering and expansion in collect(); its lists are the same for any count.
+  void set_threads(int threads) { threads_ = threads; }
 
  private:
   Faces cloth_faces_;
@@ -77,6 +79,8 @@ class ContactDetection {
   std::vector<Aabb> cloth_boxes_;
   std::vector<Body> bodies_;
   std::vector<std::pair<int, int>> scratch_pairs_;
+  std::vector<std::vector<FeaturePair>> chunk_pairs_;  // collect(): per chunk of triangle pairs
+  int threads_ = 1;
 };
 
 }  // namespace weft

@@ -176,17 +176,31 @@ bool SelfCollisionCulling::boundary_clear(int node, const Vec3& axis, const Posi
   const auto& edges = boundary_[node];
   const int count = static_cast<int>(edges.size());
   auto project = [&](const Vec3& p) { return Vec3(p - axis.dot(p) * axis); };
+  // A direction in the projection plane to sweep along.
+  const Vec3 sweep = (std::abs(axis.x()) < 0.9 ? Vec3::UnitX() : Vec3::UnitY()).cross(axis).normalized();
   std::vector<std::array<Vec3, 2>> segment(count);
   std::vector<double> motion(count, 0.0);  // largest projected displacement of the edge's ends
+  std::vector<std::array<double, 2>> extent(count);  // along `sweep`, widened by motion and margin
+  std::vector<int> order(count);
   for (int k = 0; k < count; ++k) {
     for (int e = 0; e < 2; ++e) {
       const int v = edges[k][e];
       segment[k][e] = project(row3(x, v));
       motion[k] = std::max(motion[k], project(row3(x_end, v) - row3(x, v)).norm());
     }
+    const double a = sweep.dot(segment[k][0]), b = sweep.dot(segment[k][1]);
+    extent[k] = {std::min(a, b) - motion[k] - 0.5 * margin, std::max(a, b) + motion[k] + 0.5 * margin};
+    order[k] = k;
   }
-  for (int i = 0; i < count; ++i)
-    for (int j = i + 1; j < count; ++j) {
+  // Sweep and prune: only segments whose widened extents along `sweep` overlap can be within
+  // margin of each other (the distance is at least the gap between the extents).
+  std::sort(order.begin(), order.end(), [&](int a, int b) {
+    return extent[a][0] < extent[b][0] || (extent[a][0] == extent[b][0] && a < b);
+  });
+  for (int oi = 0; oi < count; ++oi) {
+    const int i = order[oi];
+    for (int oj = oi + 1; oj < count && extent[order[oj]][0] <= extent[i][1]; ++oj) {
+      const int j = order[oj];
       const auto& a = edges[i];
       const auto& b = edges[j];
       if (a[0] == b[0] || a[0] == b[1] || a[1] == b[0] || a[1] == b[1]) continue;
@@ -194,6 +208,7 @@ bool SelfCollisionCulling::boundary_clear(int node, const Vec3& axis, const Posi
       const double d = segment_segment_distance(segment[i][0], segment[i][1], segment[j][0], segment[j][1], s, t);
       if (d - motion[i] - motion[j] <= margin) return false;
     }
+  }
   return true;
 }
 

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 
 #include "weft/geometry/aabb_tree.h"
 #include "weft/geometry/exact_predicates.h"
@@ -86,29 +87,40 @@ bool mesh_pair_intersects(const Positions& x, const Faces& faces, int fa, int fb
          segment_intersects_triangle(tb[(sb + 1) % 3], tb[(sb + 2) % 3], ta[0], ta[1], ta[2]);
 }
 
+// The candidates for which `hit` holds: counted, and appended to pairs in candidate order.
+template <class Hit>
+int count_hits(const std::vector<std::pair<int, int>>& candidates, std::vector<std::pair<int, int>>* pairs,
+               int threads, Hit&& hit) {
+  const std::int64_t n = static_cast<std::int64_t>(candidates.size());
+  std::vector<char> hits(candidates.size(), 0);
+#pragma omp parallel for schedule(dynamic, 256) num_threads(threads) if (threads > 1 && n > 4096)
+  for (std::int64_t k = 0; k < n; ++k) hits[k] = hit(candidates[k].first, candidates[k].second) ? 1 : 0;
+  int count = 0;
+  for (std::int64_t k = 0; k < n; ++k)
+    if (hits[k]) {
+      ++count;
+      if (pairs) pairs->push_back(candidates[k]);
+    }
+  return count;
+}
+
 }  // namespace
 
 int count_self_intersections(const Positions& x, const Faces& faces, const std::vector<char>& face_mask,
-                             std::vector<std::pair<int, int>>* pairs) {
+                             std::vector<std::pair<int, int>>* pairs, int threads) {
   std::vector<Aabb> boxes;
   triangle_boxes(faces, x, x, {}, boxes);
   AabbTree tree;
   tree.build(boxes);
   std::vector<std::pair<int, int>> candidates;
   tree.self_pairs(candidates);
-  int count = 0;
-  for (const auto& [a, b] : candidates) {
-    if (!face_mask.empty() && (!face_mask[a] || !face_mask[b])) continue;
-    if (mesh_pair_intersects(x, faces, a, b)) {
-      ++count;
-      if (pairs) pairs->emplace_back(a, b);
-    }
-  }
-  return count;
+  return count_hits(candidates, pairs, threads, [&](int a, int b) {
+    return (face_mask.empty() || (face_mask[a] && face_mask[b])) && mesh_pair_intersects(x, faces, a, b);
+  });
 }
 
 int count_intersections(const Positions& xa, const Faces& fa, const Positions& xb, const Faces& fb,
-                        const std::vector<char>& face_mask_a, std::vector<std::pair<int, int>>* pairs) {
+                        const std::vector<char>& face_mask_a, std::vector<std::pair<int, int>>* pairs, int threads) {
   std::vector<Aabb> boxes_a, boxes_b;
   triangle_boxes(fa, xa, xa, {}, boxes_a);
   triangle_boxes(fb, xb, xb, {}, boxes_b);
@@ -117,15 +129,9 @@ int count_intersections(const Positions& xa, const Faces& fa, const Positions& x
   tb.build(boxes_b);
   std::vector<std::pair<int, int>> candidates;
   ta.pairs(tb, candidates);
-  int count = 0;
-  for (const auto& [a, b] : candidates) {
-    if (!face_mask_a.empty() && !face_mask_a[a]) continue;
-    if (triangles_intersect(corners(xa, fa, a), corners(xb, fb, b))) {
-      ++count;
-      if (pairs) pairs->emplace_back(a, b);
-    }
-  }
-  return count;
+  return count_hits(candidates, pairs, threads, [&](int a, int b) {
+    return (face_mask_a.empty() || face_mask_a[a]) && triangles_intersect(corners(xa, fa, a), corners(xb, fb, b));
+  });
 }
 
 }  // namespace weft

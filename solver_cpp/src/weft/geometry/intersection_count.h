@@ -21,11 +21,13 @@ bool segment_intersects_triangle(const Vec3& p, const Vec3& q, const Vec3& a, co
 // Whether triangles (a0, a1, a2) and (b0, b1, b2), sharing no vertex, intersect (exact).
 bool triangles_intersect(const std::array<Vec3, 3>& ta, const std::array<Vec3, 3>& tb);
 
-// Intersecting pairs among the faces of one mesh (self) or between two meshes.
+// Intersecting pairs among the faces of one mesh (self) or between two meshes. The exact tests
+// of the candidate pairs run on `threads` threads; count and pairs (in candidate order) are the
+// same for any thread count.
 int count_self_intersections(const Positions& x, const Faces& faces, const std::vector<char>& face_mask = {},
-                             std::vector<std::pair<int, int>>* pairs = nullptr);
+                             std::vector<std::pair<int, int>>* pairs = nullptr, int threads = 1);
 int count_intersections(const Positions& xa, const Faces& fa, const Positions& xb, const Faces& fb,
                         const std::vector<char>& face_mask_a = {},
-                        std::vector<std::pair<int, int>>* pairs = nullptr);
+                        std::vector<std::pair<int, int>>* pairs = nullptr, int threads = 1);
 
 }  // namespace weft

@@ -22,7 +22,7 @@
 
 namespace weft {
 
-constexpr int kParallelSolveRows = 8192;  // smaller systems solve on one thread
+constexpr int kParallelSolveRows = 2048;  // smaller systems solve on one thread (barriers: weft/__init__.py)
 
 template <class Scalar>
 class FastLinearSystem final : public LinearSystemPath {
