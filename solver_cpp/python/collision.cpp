@@ -157,7 +157,7 @@ void bind_collision(py::module_& m) {
   simulation.def_property_readonly("collisions_enabled", [](const Simulation& s) { return s.collision_system() != nullptr; })
       .def(
           "count_intersections",
-          [](const Simulation& s) {
+          [](Simulation& s) {
             if (s.collision_system()) return s.collision_system()->count_intersections(s.positions(), s.bodies());
             return count_self_intersections(s.positions(), s.mesh().faces);
           },

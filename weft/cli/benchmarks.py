@@ -69,3 +69,12 @@ def contact(ctx: typer.Context) -> None:
     from bench.contact import main
 
     raise typer.Exit(main(list(ctx.args)))
+
+
+@app.command("tolerance", context_settings={"allow_extra_args": True, "ignore_unknown_options": True})
+def tolerance(ctx: typer.Context) -> None:
+    """Speed against error of the CG tolerance: each scene once per tolerance, error against a
+    1e-8 run, with the scene's own sensitivity as a floor. Options as `python -m bench.tolerance --help`."""
+    from bench.tolerance import main
+
+    raise typer.Exit(main(list(ctx.args)))

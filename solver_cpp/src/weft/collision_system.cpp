@@ -171,7 +171,7 @@ void CollisionSystem::respond(const Positions& x, Positions& v, double h, const 
     untangle_.clear();
   }
   detection_.collect(step_, *filter_, frame_, false);
-  ProximityResponse().apply(step_, props_, frame_);
+  ProximityResponse().apply(step_, props_, frame_, threads_);
   if (strain_limit_.enabled()) {
     const Timer timer;
     frame_.strain_limited_edges += strain_limit_.apply(step_, props_);
@@ -204,14 +204,22 @@ void CollisionSystem::respond(const Positions& x, Positions& v, double h, const 
   step_.end();
 }
 
-int CollisionSystem::count_intersections(const Positions& x, const std::vector<KinematicBody>& bodies) const {
+int CollisionSystem::count_intersections(const Positions& x, const std::vector<KinematicBody>& bodies) {
   int total = 0;
+  const Faces& faces = detection_.cloth_faces();
+  // Self-candidates first: they refit the cloth tree without margin, which the body pairs use.
   if (detection_.any_self())
-    total += count_self_intersections(x, detection_.cloth_faces(), detection_.face_self(), nullptr, threads_);
-  for (size_t b = 0; b < detection_.bodies().size(); ++b)
-    if (detection_.bodies()[b].collide)
-      total += weft::count_intersections(x, detection_.cloth_faces(), bodies[b].frame_end(),
-                                         detection_.bodies()[b].faces, detection_.face_collide(), nullptr, threads_);
+    total += count_self_intersections_among(x, faces, detection_.self_intersection_candidates(x),
+                                            detection_.face_self(), threads_);
+  else
+    detection_.refit_cloth(x, x, 0.0);
+  for (size_t b = 0; b < detection_.bodies().size(); ++b) {
+    if (!detection_.bodies()[b].collide) continue;
+    const Positions& body_x = bodies[b].frame_end();
+    total += count_intersections_among(x, faces, body_x, detection_.bodies()[b].faces,
+                                       detection_.body_pairs(static_cast<int>(b), body_x, body_x),
+                                       detection_.face_collide(), threads_);
+  }
   return total;
 }
 

@@ -57,7 +57,9 @@ class CollisionSystem {
 
   // Exact count of intersecting triangle pairs (cloth/body for collidable bodies at the end of
   // the frame, cloth/cloth among self-colliding faces).
-  int count_intersections(const Positions& x, const std::vector<KinematicBody>& bodies) const;
+  // Exact count of intersecting triangle pairs at x (cloth/body and cloth/cloth as switched on),
+  // over the broad phase's trees with self-culling (refits them).
+  int count_intersections(const Positions& x, const std::vector<KinematicBody>& bodies);
 
   // Colliding pairs left unresolved so far this frame; a retried step's are taken back.
   int unresolved() const { return frame_.unresolved; }

@@ -103,6 +103,7 @@ class Simulation {
   int body_count() const { return static_cast<int>(bodies_.size()); }
   const SolverSettings& settings() const { return settings_; }
   const CollisionSystem* collision_system() const { return collisions_.get(); }
+  CollisionSystem* collision_system() { return collisions_.get(); }
   const std::vector<KinematicBody>& bodies() const { return bodies_; }
   LinearSystemPath& linear_system() { return *linear_; }
   const ConstraintFilter& constraint_filter() const { return filter_; }  // of the last step

@@ -107,7 +107,19 @@ const std::vector<std::pair<int, int>>& ContactDetection::body_pairs(int body, c
   triangle_boxes(state.faces, start, end, {}, state.boxes);
   state.tree.refit(state.boxes);
   scratch_pairs_.clear();
-  cloth_tree_.pairs(state.tree, scratch_pairs_);
+  cloth_tree_.pairs(state.tree, scratch_pairs_, threads_);
+  return scratch_pairs_;
+}
+
+const std::vector<std::pair<int, int>>& ContactDetection::self_intersection_candidates(const Positions& x) {
+  refit_cloth(x, x, 0.0);
+  scratch_pairs_.clear();
+  const std::vector<char>* culled = nullptr;
+  if (self_culling_) {
+    culling_.update(cloth_tree_, cloth_faces_, x, x, 0.0);
+    culled = &culling_.culled();
+  }
+  cloth_tree_.self_pairs(scratch_pairs_, culled, threads_);
   return scratch_pairs_;
 }
 
@@ -173,7 +185,7 @@ void ContactDetection::collect(CollisionStep& step, const ContactFilter& filter,
       culling_.update(cloth_tree_, cloth_faces_, x, end, fraction * largest_margin_);
       culled = &culling_.culled();
     }
-    cloth_tree_.self_pairs(scratch_pairs_, culled);
+    cloth_tree_.self_pairs(scratch_pairs_, culled, threads_);
     expand_in_chunks(static_cast<std::int64_t>(scratch_pairs_.size()), threads_, chunk_pairs_, pairs,
                      [&](std::int64_t k, std::vector<FeaturePair>& out) {
                        const auto [a, b] = scratch_pairs_[k];

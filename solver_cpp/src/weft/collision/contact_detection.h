@@ -50,6 +50,10 @@ class ContactDetection {
   // separation, into step.pairs; else at step.x within one thickness, into
   // step.proximity_pairs. Cloth in a pinch region gets no CCD.
   void collect(CollisionStep& step, const ContactFilter& filter, CollisionTelemetry& frame, bool swept);
+  // Candidates for the exact intersection count at the static configuration x: triangle pairs
+  // with overlapping boxes (no margin), without the self-pairs of tree nodes that cannot
+  // intersect themselves (self_culling.h at margin 0). Refits the trees (collect refits anew).
+  const std::vector<std::pair<int, int>>& self_intersection_candidates(const Positions& x);
   // Feature pairs of cloth face `cloth_face` against `other_face`, a cloth face (body < 0) or a
   // face of body `body`, appended to out.
   void expand_triangle_pair(int cloth_face, int other_face, int body, const ContactFilter& filter,
@@ -65,6 +69,7 @@ class ContactDetection {
   bool any_body() const { return any_body_; }
   // Threads of the narrow filtering and expansion in collect(); its lists are the same for any count.
   void set_threads(int threads) { threads_ = threads; }
+  int threads() const { return threads_; }
 
  private:
   Faces cloth_faces_;

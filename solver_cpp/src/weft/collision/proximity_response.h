@@ -13,8 +13,10 @@ constexpr double kRepulsionRate = 0.1;
 
 class ProximityResponse {
  public:
-  // Impulses over step.pairs in order; returns the number of pairs pushed.
-  int apply(CollisionStep& step, const ContactProperties& props, CollisionTelemetry& frame) const;
+  // Impulses over step.proximity_pairs in order; returns the number of pairs pushed. The
+  // distance tests (start positions only) run on `threads` threads first, the impulses in
+  // order on one: the same result for any thread count.
+  int apply(CollisionStep& step, const ContactProperties& props, CollisionTelemetry& frame, int threads = 1) const;
 };
 
 }  // namespace weft

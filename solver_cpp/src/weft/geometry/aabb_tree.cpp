@@ -1,6 +1,7 @@
 #include "weft/geometry/aabb_tree.h"
 
 #include <algorithm>
+#include <cstdint>
 
 namespace weft {
 
@@ -69,8 +70,71 @@ void AabbTree::refit(const std::vector<Aabb>& leaves) {
   }
 }
 
-void AabbTree::self_pairs(std::vector<std::pair<int, int>>& out, const std::vector<char>* culled) const {
-  if (!nodes_.empty()) self_node(0, out, culled);
+void AabbTree::self_pairs(std::vector<std::pair<int, int>>& out, const std::vector<char>* culled, int threads) const {
+  if (nodes_.empty()) return;
+  if (threads <= 1) {
+    self_node(0, out, culled);
+    return;
+  }
+  run_tasks(split_tasks({{0, 0, true}}, *this, true, culled, 16 * threads), *this, true, culled, threads, out);
+}
+
+std::vector<AabbTree::Task> AabbTree::split_tasks(std::vector<Task> tasks, const AabbTree& tb, bool same,
+                                                  const std::vector<char>* culled, int wanted) const {
+  // Breadth-first: replace every task by its sub-tasks in the recursion's order until there are
+  // enough (or nothing splits); leaf-leaf and non-overlapping tasks stay as they are.
+  for (int round = 0; round < 32 && static_cast<int>(tasks.size()) < wanted; ++round) {
+    std::vector<Task> next;
+    next.reserve(2 * tasks.size());
+    bool split = false;
+    for (const Task& t : tasks) {
+      if (t.self) {
+        const Node& node = nodes_[t.a];
+        if (node.leaf >= 0 || (culled && (*culled)[t.a])) continue;  // no pairs
+        next.push_back({node.left, 0, true});
+        next.push_back({node.right, 0, true});
+        next.push_back({node.left, node.right, false});
+        split = true;
+        continue;
+      }
+      const Node& na = nodes_[t.a];
+      const Node& nb = tb.nodes_[t.b];
+      if (!na.box.overlaps(nb.box)) continue;  // no pairs
+      if (na.leaf >= 0 && nb.leaf >= 0) {
+        next.push_back(t);
+        continue;
+      }
+      const bool split_a =
+          nb.leaf >= 0 || (na.leaf < 0 && (na.box.hi - na.box.lo).sum() >= (nb.box.hi - nb.box.lo).sum());
+      if (split_a) {
+        next.push_back({na.left, t.b, false});
+        next.push_back({na.right, t.b, false});
+      } else {
+        next.push_back({t.a, nb.left, false});
+        next.push_back({t.a, nb.right, false});
+      }
+      split = true;
+    }
+    tasks.swap(next);
+    if (!split) break;
+  }
+  return tasks;
+}
+
+void AabbTree::run_tasks(const std::vector<Task>& tasks, const AabbTree& tb, bool same,
+                         const std::vector<char>* culled, int threads,
+                         std::vector<std::pair<int, int>>& out) const {
+  const std::int64_t count = static_cast<std::int64_t>(tasks.size());
+  std::vector<std::vector<std::pair<int, int>>> parts(tasks.size());
+#pragma omp parallel for schedule(dynamic, 1) num_threads(threads) if (count > 1)
+  for (std::int64_t k = 0; k < count; ++k) {
+    const Task& t = tasks[k];
+    if (t.self)
+      self_node(t.a, parts[k], culled);
+    else
+      cross(t.a, tb, t.b, same, parts[k]);
+  }
+  for (const auto& part : parts) out.insert(out.end(), part.begin(), part.end());
 }
 
 void AabbTree::self_node(int n, std::vector<std::pair<int, int>>& out, const std::vector<char>* culled) const {
@@ -81,8 +145,13 @@ void AabbTree::self_node(int n, std::vector<std::pair<int, int>>& out, const std
   cross(node.left, *this, node.right, true, out);
 }
 
-void AabbTree::pairs(const AabbTree& other, std::vector<std::pair<int, int>>& out) const {
-  if (!nodes_.empty() && !other.nodes_.empty()) cross(0, other, 0, false, out);
+void AabbTree::pairs(const AabbTree& other, std::vector<std::pair<int, int>>& out, int threads) const {
+  if (nodes_.empty() || other.nodes_.empty()) return;
+  if (threads <= 1) {
+    cross(0, other, 0, false, out);
+    return;
+  }
+  run_tasks(split_tasks({{0, 0, false}}, other, false, nullptr, 16 * threads), other, false, nullptr, threads, out);
 }
 
 void AabbTree::cross(int a, const AabbTree& tb, int b, bool same, std::vector<std::pair<int, int>>& out) const {

@@ -54,9 +54,12 @@ class AabbTree {
 
   // Every pair (i, j), i < j, of leaves whose boxes overlap, except pairs inside a node n with
   // (*culled)[n] != 0 when culled is given (self-collision culling, collision/self_culling.h).
-  void self_pairs(std::vector<std::pair<int, int>>& out, const std::vector<char>* culled = nullptr) const;
+  // threads > 1 splits the traversal into subtree tasks run in parallel and joined in order:
+  // the same list, in the same order, for any thread count.
+  void self_pairs(std::vector<std::pair<int, int>>& out, const std::vector<char>* culled = nullptr,
+                  int threads = 1) const;
   // Every pair (i of this tree, j of other) whose boxes overlap.
-  void pairs(const AabbTree& other, std::vector<std::pair<int, int>>& out) const;
+  void pairs(const AabbTree& other, std::vector<std::pair<int, int>>& out, int threads = 1) const;
   // Box of all leaves (the tree must not be empty).
   const Aabb& bounds() const { return nodes_[0].box; }
   // visit(leaf) for every leaf whose box overlaps `box` (closed boxes).
@@ -87,6 +90,16 @@ class AabbTree {
   int build_range(std::vector<int>& order, std::vector<Vec3>& centre, int begin, int end);
   void self_node(int n, std::vector<std::pair<int, int>>& out, const std::vector<char>* culled) const;
   void cross(int a, const AabbTree& tb, int b, bool same, std::vector<std::pair<int, int>>& out) const;
+  // A piece of the traversal: the self-pairs of node a (self) or the pairs across (a, b).
+  struct Task {
+    int a, b;
+    bool self;
+  };
+  // Tasks whose results, concatenated in order, are the whole traversal's.
+  std::vector<Task> split_tasks(std::vector<Task> tasks, const AabbTree& tb, bool same,
+                                const std::vector<char>* culled, int wanted) const;
+  void run_tasks(const std::vector<Task>& tasks, const AabbTree& tb, bool same, const std::vector<char>* culled,
+                 int threads, std::vector<std::pair<int, int>>& out) const;
 
   std::vector<Node> nodes_;
   std::vector<int> post_order_;  // children before parents, for refitting

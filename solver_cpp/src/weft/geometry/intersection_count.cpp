@@ -134,4 +134,20 @@ int count_intersections(const Positions& xa, const Faces& fa, const Positions& x
   });
 }
 
+int count_self_intersections_among(const Positions& x, const Faces& faces,
+                                   const std::vector<std::pair<int, int>>& candidates,
+                                   const std::vector<char>& face_mask, int threads) {
+  return count_hits(candidates, nullptr, threads, [&](int a, int b) {
+    return (face_mask.empty() || (face_mask[a] && face_mask[b])) && mesh_pair_intersects(x, faces, a, b);
+  });
+}
+
+int count_intersections_among(const Positions& xa, const Faces& fa, const Positions& xb, const Faces& fb,
+                              const std::vector<std::pair<int, int>>& candidates,
+                              const std::vector<char>& face_mask_a, int threads) {
+  return count_hits(candidates, nullptr, threads, [&](int a, int b) {
+    return (face_mask_a.empty() || face_mask_a[a]) && triangles_intersect(corners(xa, fa, a), corners(xb, fb, b));
+  });
+}
+
 }  // namespace weft

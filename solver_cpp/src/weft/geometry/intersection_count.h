@@ -30,4 +30,13 @@ int count_intersections(const Positions& xa, const Faces& fa, const Positions& x
                         const std::vector<char>& face_mask_a = {},
                         std::vector<std::pair<int, int>>* pairs = nullptr, int threads = 1);
 
+// The same counts over given candidate triangle pairs (a broad phase's, e.g. one with culled
+// self-pairs): self pairs of `faces` at x, or pairs (face of fa, face of fb) between two meshes.
+int count_self_intersections_among(const Positions& x, const Faces& faces,
+                                   const std::vector<std::pair<int, int>>& candidates,
+                                   const std::vector<char>& face_mask, int threads);
+int count_intersections_among(const Positions& xa, const Faces& fa, const Positions& xb, const Faces& fb,
+                              const std::vector<std::pair<int, int>>& candidates,
+                              const std::vector<char>& face_mask_a, int threads);
+
 }  // namespace weft

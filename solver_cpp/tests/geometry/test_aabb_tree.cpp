@@ -1,0 +1,68 @@
+// AABB tree traversals: the parallel task split gives the serial pair lists, in the same order,
+// and the pairs are exactly the overlapping boxes.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <random>
+#include <set>
+
+#include "weft/geometry/aabb_tree.h"
+
+using namespace weft;
+
+namespace {
+std::vector<Aabb> random_boxes(int count, unsigned seed, double size) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  std::vector<Aabb> boxes(count);
+  for (Aabb& box : boxes) {
+    const Vec3 c(unit(rng), unit(rng), 0.2 * unit(rng));
+    box.expand(c);
+    box.inflate(size * (0.5 + unit(rng)));
+  }
+  return boxes;
+}
+}  // namespace
+
+TEST(AabbTree, ParallelTraversalsEqualTheSerialOnes) {
+  const std::vector<Aabb> a = random_boxes(3000, 1, 0.01), b = random_boxes(1200, 2, 0.015);
+  AabbTree ta, tb;
+  ta.build(a);
+  tb.build(b);
+  std::vector<std::pair<int, int>> serial, parallel;
+  ta.self_pairs(serial);
+  ASSERT_GT(serial.size(), 1000u);
+  for (int threads : {2, 3, 8}) {
+    parallel.clear();
+    ta.self_pairs(parallel, nullptr, threads);
+    EXPECT_EQ(parallel, serial) << threads << " threads";
+  }
+  // Brute force: the self pairs are exactly the overlapping ones, each once.
+  std::set<std::pair<int, int>> expected;
+  for (int i = 0; i < static_cast<int>(a.size()); ++i)
+    for (int j = i + 1; j < static_cast<int>(a.size()); ++j)
+      if (a[i].overlaps(a[j])) expected.insert({i, j});
+  const std::set<std::pair<int, int>> found(serial.begin(), serial.end());
+  EXPECT_EQ(found, expected);
+  EXPECT_EQ(serial.size(), expected.size());
+
+  serial.clear();
+  ta.pairs(tb, serial);
+  ASSERT_GT(serial.size(), 100u);
+  for (int threads : {2, 5}) {
+    parallel.clear();
+    ta.pairs(tb, parallel, threads);
+    EXPECT_EQ(parallel, serial) << threads << " threads";
+  }
+
+  // With culled nodes: every other inner node culled, same lists for any thread count.
+  std::vector<char> culled(ta.node_count(), 0);
+  for (int n = 0; n < ta.node_count(); n += 7)
+    if (ta.leaf(n) < 0 && n != 0) culled[n] = 1;
+  serial.clear();
+  ta.self_pairs(serial, &culled);
+  ASSERT_GT(serial.size(), 0u);
+  parallel.clear();
+  ta.self_pairs(parallel, &culled, 4);
+  EXPECT_EQ(parallel, serial);
+}
