@@ -93,7 +93,8 @@ def weft_breakdown(telemetry: list[Any]) -> dict[str, Any]:
 
     substeps = column("substeps").sum()
     out = {f"{name}_per_frame": float(column(name).mean()) for name in (
-        "build_seconds", "solve_seconds", "collision_seconds", "gia_seconds", "total_seconds", "ccd_candidates",
+        "build_seconds", "solve_seconds", "setup_seconds", "collision_seconds", "gia_seconds", "total_seconds",
+        "ccd_candidates",
         "broad_phase_pairs", "proximity_pairs", "contact_constraints", "released_contacts", "impact_zones")}
     out["collision_share"] = float(column("collision_seconds").sum() / max(column("total_seconds").sum(), 1e-300))
     out.update({
@@ -174,7 +175,7 @@ def format_tables(rows: list[dict[str, Any]]) -> list[Any]:
             _fmt(r["max_speed_m_s"], ".2f"), "yes" if r["nan"] else "no", note,
         )
     steps = Table(title="weft step breakdown (per simulated frame; CG iterations per substep)")
-    for column in ("scene", "build s", "solve s", "collision s", "collision share", "gia s", "CG it/substep",
+    for column in ("scene", "build s", "solve s", "of which setup s", "collision s", "collision share", "gia s", "CG it/substep",
                    "CCD cand/frame", "contacts in solve/frame", "prox pairs/frame", "impact zones", "unresolved",
                    "unconverged"):
         steps.add_column(column, justify="left" if column == "scene" else "right")
@@ -184,7 +185,7 @@ def format_tables(rows: list[dict[str, Any]]) -> list[Any]:
             continue
         steps.add_row(
             r["scene"], *(f"{t[k]:.3f}" for k in ("build_seconds_per_frame", "solve_seconds_per_frame",
-                                                   "collision_seconds_per_frame")),
+                                                   "setup_seconds_per_frame", "collision_seconds_per_frame")),
             f"{t['collision_share']:.0%}", f"{t['gia_seconds_per_frame']:.3f}",
             f"{t['cg_iterations_per_substep']:.0f}", f"{t['ccd_candidates_per_frame']:.0f}",
             f"{t['contact_constraints_per_frame']:.0f}", f"{t['proximity_pairs_per_frame']:.0f}",
