@@ -158,8 +158,9 @@ def test_collision_stage_is_bitwise_reproducible_across_thread_counts():
 
 def test_parallel_collision_stage_at_size_is_bitwise_the_serial_one():
     """Large enough that every parallel part of the stage splits its work (tree tasks, chunks of
-    triangle pairs, proximity distances over 2048 pairs, counting over 4096 candidates): a sheet
-    of 48 x 48 vertices with self-collision draping on the sphere, 1 against 3 threads."""
+    triangle pairs, proximity distances over 2048 pairs, counting over several chunks of 1024
+    candidates): a sheet of 48 x 48 vertices with self-collision draping on the sphere, 1
+    against 3 threads."""
     doc = drop_shot("sphere", n=48, frames=9, substeps=2)
     doc["features"] = {"self_collision": True}
     scene = make_scene(doc)

@@ -6,6 +6,7 @@
 #include <limits>
 
 #include "weft/collision/proximity_response.h"
+#include "weft/common/ordered_append.h"
 #include "weft/common/timer.h"
 
 namespace weft {
@@ -36,46 +37,42 @@ void ContactConstraints::constrain(const Positions& x, const Positions& v, doubl
     Contact contact;
   };
   constexpr std::int64_t kChunk = 256;
-  std::vector<std::vector<Near>> chunks;
+  std::vector<Near> nearby;
   for (size_t b = 0; b < detection.bodies().size(); ++b) {
     const ContactDetection::Body& state = detection.bodies()[b];
     if (!state.collide) continue;
     const Positions& start = step.body_start[b];
     const Positions& end = step.body_end[b];
     const std::vector<std::pair<int, int>>& candidates = detection.body_pairs(static_cast<int>(b), start, start);
-    const std::int64_t count = static_cast<std::int64_t>(candidates.size());
-    chunks.assign((count + kChunk - 1) / kChunk, {});
-    const std::int64_t chunk_count = static_cast<std::int64_t>(chunks.size());
-#pragma omp parallel for schedule(dynamic, 1) num_threads(detection.threads()) if (detection.threads() > 1 && chunk_count > 1)
-    for (std::int64_t c = 0; c < chunk_count; ++c) {
-      for (std::int64_t k = c * kChunk; k < std::min(count, (c + 1) * kChunk); ++k) {
-        const auto [cf, bf] = candidates[k];
-        if (!detection.face_collide()[cf]) continue;
-        const Vec3 a = row3(start, state.faces(bf, 0)), bb = row3(start, state.faces(bf, 1)),
-                   cc = row3(start, state.faces(bf, 2));
-        for (int vtx : detection.cloth_ownership().face_vertices[cf]) {
-          if (props.inverse_mass[vtx] == 0.0) continue;
-          Vec3 bary;
-          const Vec3 p = row3(x, vtx);
-          const double d = point_triangle_distance(p, a, bb, cc, bary);
-          const double th = props.thickness[vtx];
-          if (d >= kContactBand * th || d <= 1e-12 * th) continue;
-          Vec3 vb = Vec3::Zero();
-          for (int q = 0; q < 3; ++q) {
-            const int bv = state.faces(bf, q);
-            vb += bary[q] * (row3(end, bv) - row3(start, bv)) / h;
-          }
-          chunks[c].push_back(
-              {vtx, d, {vtx, static_cast<int>(b), (p - (bary[0] * a + bary[1] * bb + bary[2] * cc)) / d, vb, 0.0}});
-        }
+    nearby.clear();
+    ordered_append(static_cast<std::int64_t>(candidates.size()), kChunk, detection.threads(), nearby,
+                   [&](std::int64_t k, std::vector<Near>& out) {
+                     const auto [cf, bf] = candidates[k];
+                     if (!detection.face_collide()[cf]) return;
+                     const Vec3 a = row3(start, state.faces(bf, 0)), bb = row3(start, state.faces(bf, 1)),
+                                cc = row3(start, state.faces(bf, 2));
+                     for (int vtx : detection.cloth_ownership().face_vertices[cf]) {
+                       if (props.inverse_mass[vtx] == 0.0) continue;
+                       Vec3 bary;
+                       const Vec3 p = row3(x, vtx);
+                       const double d = point_triangle_distance(p, a, bb, cc, bary);
+                       const double th = props.thickness[vtx];
+                       if (d >= kContactBand * th || d <= 1e-12 * th) continue;
+                       Vec3 vb = Vec3::Zero();
+                       for (int q = 0; q < 3; ++q) {
+                         const int bv = state.faces(bf, q);
+                         vb += bary[q] * (row3(end, bv) - row3(start, bv)) / h;
+                       }
+                       out.push_back({vtx, d,
+                                      {vtx, static_cast<int>(b), (p - (bary[0] * a + bary[1] * bb + bary[2] * cc)) / d,
+                                       vb, 0.0}});
+                     }
+                   });
+    for (const Near& near : nearby)
+      if (near.distance < best[near.vertex]) {
+        best[near.vertex] = near.distance;
+        contact[near.vertex] = near.contact;
       }
-    }
-    for (const std::vector<Near>& chunk : chunks)
-      for (const Near& near : chunk)
-        if (near.distance < best[near.vertex]) {
-          best[near.vertex] = near.distance;
-          contact[near.vertex] = near.contact;
-        }
   }
   for (int i = 0; i < vertex_count; ++i) {
     const bool released = released_[i] != 0, held = held_[i] != 0;

@@ -4,6 +4,7 @@
 #include <cstdint>
 #include <limits>
 
+#include "weft/common/ordered_append.h"
 #include "weft/common/timer.h"
 
 namespace weft {
@@ -46,22 +47,9 @@ bool triangles_apart(const Triangle& as, const Triangle& ae, const Triangle& bs,
   return plane_separates(as, ae, bs, be, gap) || plane_separates(bs, be, as, ae, gap);
 }
 
-// expand(k, out) for every candidate k, in parallel over fixed chunks of candidates, each chunk
-// into its own list; the lists are appended to `pairs` in chunk order, so the result is the
-// serial one for any thread count.
-template <class Expand>
-void expand_in_chunks(std::int64_t candidates, int threads, std::vector<std::vector<FeaturePair>>& chunks,
-                      std::vector<FeaturePair>& pairs, Expand&& expand) {
-  constexpr std::int64_t kChunk = 512;
-  const std::int64_t count = (candidates + kChunk - 1) / kChunk;
-  if (static_cast<std::int64_t>(chunks.size()) < count) chunks.resize(count);
-#pragma omp parallel for schedule(dynamic, 1) num_threads(threads) if (threads > 1 && count > 1)
-  for (std::int64_t c = 0; c < count; ++c) {
-    chunks[c].clear();
-    for (std::int64_t k = c * kChunk; k < std::min(candidates, (c + 1) * kChunk); ++k) expand(k, chunks[c]);
-  }
-  for (std::int64_t c = 0; c < count; ++c) pairs.insert(pairs.end(), chunks[c].begin(), chunks[c].end());
-}
+// Triangle pairs per parallel chunk of the plane test and expansion (collect).
+constexpr std::int64_t kExpandChunk = 512;
+
 }  // namespace
 
 ContactDetection::ContactDetection(const Faces& cloth_faces, const Positions& x, std::vector<char> face_collide,
@@ -186,16 +174,16 @@ void ContactDetection::collect(CollisionStep& step, const ContactFilter& filter,
       culled = &culling_.culled();
     }
     cloth_tree_.self_pairs(scratch_pairs_, culled, threads_);
-    expand_in_chunks(static_cast<std::int64_t>(scratch_pairs_.size()), threads_, chunk_pairs_, pairs,
-                     [&](std::int64_t k, std::vector<FeaturePair>& out) {
-                       const auto [a, b] = scratch_pairs_[k];
-                       if (!face_self_[a] || !face_self_[b]) return;
-                       const double gap = fraction * std::max(face_margin_[a], face_margin_[b]);
-                       if (triangles_apart(corners(cloth_faces_, a, x), corners(cloth_faces_, a, end),
-                                           corners(cloth_faces_, b, x), corners(cloth_faces_, b, end), gap))
-                         return;
-                       expand_triangle_pair(a, b, -1, filter, out);
-                     });
+    ordered_append(static_cast<std::int64_t>(scratch_pairs_.size()), kExpandChunk, threads_, pairs, chunk_pairs_,
+                   [&](std::int64_t k, std::vector<FeaturePair>& out) {
+                     const auto [a, b] = scratch_pairs_[k];
+                     if (!face_self_[a] || !face_self_[b]) return;
+                     const double gap = fraction * std::max(face_margin_[a], face_margin_[b]);
+                     if (triangles_apart(corners(cloth_faces_, a, x), corners(cloth_faces_, a, end),
+                                         corners(cloth_faces_, b, x), corners(cloth_faces_, b, end), gap))
+                       return;
+                     expand_triangle_pair(a, b, -1, filter, out);
+                   });
   }
   for (size_t b = 0; b < bodies_.size(); ++b) {
     if (!bodies_[b].collide) continue;
@@ -204,19 +192,19 @@ void ContactDetection::collect(CollisionStep& step, const ContactFilter& filter,
     const Positions& body_end = swept ? step.body_end[b] : body_start;
     const Faces& body_faces = bodies_[b].faces;
     const std::vector<std::pair<int, int>>& candidates = body_pairs(body, body_start, body_end);
-    expand_in_chunks(static_cast<std::int64_t>(candidates.size()), threads_, chunk_pairs_, pairs,
-                     [&](std::int64_t k, std::vector<FeaturePair>& out) {
-                       const auto [cf, bf] = candidates[k];
-                       if (!face_collide_[cf]) return;
-                       if (triangles_apart(corners(cloth_faces_, cf, x), corners(cloth_faces_, cf, end),
-                                           corners(body_faces, bf, body_start), corners(body_faces, bf, body_end),
-                                           fraction * face_margin_[cf]))
-                         return;
-                       const size_t first = out.size();
-                       expand_triangle_pair(cf, bf, body, filter, out);
-                       if (filter.pinched_face(cf, body))  // cloth in a body/body pinch: proximity only, no CCD
-                         for (size_t j = first; j < out.size(); ++j) out[j].ccd = false;
-                     });
+    ordered_append(static_cast<std::int64_t>(candidates.size()), kExpandChunk, threads_, pairs, chunk_pairs_,
+                   [&](std::int64_t k, std::vector<FeaturePair>& out) {
+                     const auto [cf, bf] = candidates[k];
+                     if (!face_collide_[cf]) return;
+                     if (triangles_apart(corners(cloth_faces_, cf, x), corners(cloth_faces_, cf, end),
+                                         corners(body_faces, bf, body_start), corners(body_faces, bf, body_end),
+                                         fraction * face_margin_[cf]))
+                       return;
+                     const size_t first = out.size();
+                     expand_triangle_pair(cf, bf, body, filter, out);
+                     if (filter.pinched_face(cf, body))  // cloth in a body/body pinch: proximity only, no CCD
+                       for (size_t j = first; j < out.size(); ++j) out[j].ccd = false;
+                   });
   }
   frame.broad_phase_pairs += static_cast<int>(pairs.size());
   frame.broad_phase_seconds += timer.seconds();

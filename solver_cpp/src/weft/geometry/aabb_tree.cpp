@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cstdint>
 
+#include "weft/common/ordered_append.h"
+
 namespace weft {
 
 void triangle_boxes(const Faces& faces, const Positions& start, const Positions& end,
@@ -124,17 +126,14 @@ std::vector<AabbTree::Task> AabbTree::split_tasks(std::vector<Task> tasks, const
 void AabbTree::run_tasks(const std::vector<Task>& tasks, const AabbTree& tb, bool same,
                          const std::vector<char>* culled, int threads,
                          std::vector<std::pair<int, int>>& out) const {
-  const std::int64_t count = static_cast<std::int64_t>(tasks.size());
-  std::vector<std::vector<std::pair<int, int>>> parts(tasks.size());
-#pragma omp parallel for schedule(dynamic, 1) num_threads(threads) if (count > 1)
-  for (std::int64_t k = 0; k < count; ++k) {
-    const Task& t = tasks[k];
-    if (t.self)
-      self_node(t.a, parts[k], culled);
-    else
-      cross(t.a, tb, t.b, same, parts[k]);
-  }
-  for (const auto& part : parts) out.insert(out.end(), part.begin(), part.end());
+  ordered_append(static_cast<std::int64_t>(tasks.size()), 1, threads, out,
+                 [&](std::int64_t k, std::vector<std::pair<int, int>>& part) {
+                   const Task& t = tasks[k];
+                   if (t.self)
+                     self_node(t.a, part, culled);
+                   else
+                     cross(t.a, tb, t.b, same, part);
+                 });
 }
 
 void AabbTree::self_node(int n, std::vector<std::pair<int, int>>& out, const std::vector<char>* culled) const {

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdint>
 
+#include "weft/common/ordered_append.h"
 #include "weft/geometry/aabb_tree.h"
 #include "weft/geometry/exact_predicates.h"
 
@@ -91,17 +92,13 @@ bool mesh_pair_intersects(const Positions& x, const Faces& faces, int fa, int fb
 template <class Hit>
 int count_hits(const std::vector<std::pair<int, int>>& candidates, std::vector<std::pair<int, int>>* pairs,
                int threads, Hit&& hit) {
-  const std::int64_t n = static_cast<std::int64_t>(candidates.size());
-  std::vector<char> hits(candidates.size(), 0);
-#pragma omp parallel for schedule(dynamic, 256) num_threads(threads) if (threads > 1 && n > 4096)
-  for (std::int64_t k = 0; k < n; ++k) hits[k] = hit(candidates[k].first, candidates[k].second) ? 1 : 0;
-  int count = 0;
-  for (std::int64_t k = 0; k < n; ++k)
-    if (hits[k]) {
-      ++count;
-      if (pairs) pairs->push_back(candidates[k]);
-    }
-  return count;
+  std::vector<std::pair<int, int>> hits;
+  ordered_append(static_cast<std::int64_t>(candidates.size()), 1024, threads, hits,
+                 [&](std::int64_t k, std::vector<std::pair<int, int>>& out) {
+                   if (hit(candidates[k].first, candidates[k].second)) out.push_back(candidates[k]);
+                 });
+  if (pairs) pairs->insert(pairs->end(), hits.begin(), hits.end());
+  return static_cast<int>(hits.size());
 }
 
 }  // namespace
