@@ -104,7 +104,7 @@ const std::vector<std::pair<int, int>>& ContactDetection::self_intersection_cand
   scratch_pairs_.clear();
   const std::vector<char>* culled = nullptr;
   if (self_culling_) {
-    culling_.update(cloth_tree_, cloth_faces_, x, x, 0.0);
+    culling_.update(cloth_tree_, cloth_faces_, x, x, 0.0, threads_);
     culled = &culling_.culled();
   }
   cloth_tree_.self_pairs(scratch_pairs_, culled, threads_);
@@ -170,7 +170,7 @@ void ContactDetection::collect(CollisionStep& step, const ContactFilter& filter,
     scratch_pairs_.clear();
     const std::vector<char>* culled = nullptr;
     if (self_culling_) {
-      culling_.update(cloth_tree_, cloth_faces_, x, end, fraction * largest_margin_);
+      culling_.update(cloth_tree_, cloth_faces_, x, end, fraction * largest_margin_, threads_);
       culled = &culling_.culled();
     }
     cloth_tree_.self_pairs(scratch_pairs_, culled, threads_);

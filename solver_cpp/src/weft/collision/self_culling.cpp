@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 
 #include "weft/geometry/closest_points.h"
 
@@ -99,6 +100,14 @@ void SelfCollisionCulling::rebuild(const AabbTree& tree, const Faces& faces, con
   }
   cone_.assign(nodes, {});
   culled_.assign(nodes, 0);
+  // Nodes by height (leaves 0): the cones of one height depend only on the height below.
+  std::vector<int> height(nodes, 0);
+  by_height_.clear();
+  for (int n : tree.post_order()) {
+    if (tree.leaf(n) < 0) height[n] = 1 + std::max(height[tree.left(n)], height[tree.right(n)]);
+    if (static_cast<int>(by_height_.size()) <= height[n]) by_height_.resize(height[n] + 1);
+    by_height_[height[n]].push_back(n);
+  }
 }
 
 SelfCollisionCulling::Cone SelfCollisionCulling::merge(const Cone& a, const Cone& b) {
@@ -119,37 +128,45 @@ SelfCollisionCulling::Cone SelfCollisionCulling::merge(const Cone& a, const Cone
   return out;
 }
 
+SelfCollisionCulling::Cone SelfCollisionCulling::leaf_cone(const Faces& faces, int leaf, const Positions& x,
+                                                           const Positions& x_end) {
+  const Vec3 a0 = row3(x, faces(leaf, 0)), b0 = row3(x, faces(leaf, 1)), c0 = row3(x, faces(leaf, 2));
+  if (&x_end == &x) {  // static: one normal, a cone of half-angle 0
+    const Vec3 normal = (b0 - a0).cross(c0 - a0);
+    const double norm = normal.norm();
+    if (!(norm > 0.0)) return {Vec3::UnitZ(), kPi};
+    return {normal / norm, 0.0};
+  }
+  const Vec3 a1 = row3(x_end, faces(leaf, 0)), b1 = row3(x_end, faces(leaf, 1)), c1 = row3(x_end, faces(leaf, 2));
+  const Vec3 e1s = b0 - a0, e2s = c0 - a0, e1e = b1 - a1, e2e = c1 - a1;
+  const Vec3 control[3] = {e1s.cross(e2s), 0.5 * (e1s.cross(e2e) + e1e.cross(e2s)), e1e.cross(e2e)};
+  const double norms[3] = {control[0].norm(), control[1].norm(), control[2].norm()};
+  if (!(norms[0] > 0.0) || !(norms[2] > 0.0)) return {Vec3::UnitZ(), kPi};  // degenerate triangle: no cone
+  Vec3 axis = control[0] / norms[0] + control[2] / norms[2];
+  if (norms[1] > 0.0) axis += control[1] / norms[1];
+  if (!(axis.norm() > 1e-12)) return {Vec3::UnitZ(), kPi};
+  Cone cone;
+  cone.axis = axis.normalized();
+  for (int k = 0; k < 3; ++k)
+    if (norms[k] > 0.0) cone.half_angle = std::max(cone.half_angle, angle_between(cone.axis, control[k]));
+  return cone;
+}
+
 int SelfCollisionCulling::update(const AabbTree& tree, const Faces& faces, const Positions& x, const Positions& x_end,
-                                 double margin) {
+                                 double margin, int threads) {
   const int nodes = tree.node_count();
   culled_.assign(nodes, 0);
   if (nodes == 0) return 0;
-  for (int n : tree.post_order()) {
-    const int leaf = tree.leaf(n);
-    if (leaf < 0) {
-      cone_[n] = merge(cone_[tree.left(n)], cone_[tree.right(n)]);
-      continue;
+  // Cones bottom-up, one height at a time, the nodes of a height in parallel (each node's cone
+  // is computed from its own triangle or its children's cones only: any thread count, same bits).
+  for (const std::vector<int>& level : by_height_) {
+    const std::int64_t count = static_cast<std::int64_t>(level.size());
+#pragma omp parallel for schedule(static) num_threads(threads) if (threads > 1 && count > 256)
+    for (std::int64_t k = 0; k < count; ++k) {
+      const int n = level[k];
+      const int leaf = tree.leaf(n);
+      cone_[n] = leaf < 0 ? merge(cone_[tree.left(n)], cone_[tree.right(n)]) : leaf_cone(faces, leaf, x, x_end);
     }
-    const Vec3 a0 = row3(x, faces(leaf, 0)), b0 = row3(x, faces(leaf, 1)), c0 = row3(x, faces(leaf, 2));
-    const Vec3 a1 = row3(x_end, faces(leaf, 0)), b1 = row3(x_end, faces(leaf, 1)), c1 = row3(x_end, faces(leaf, 2));
-    const Vec3 e1s = b0 - a0, e2s = c0 - a0, e1e = b1 - a1, e2e = c1 - a1;
-    const Vec3 control[3] = {e1s.cross(e2s), 0.5 * (e1s.cross(e2e) + e1e.cross(e2s)), e1e.cross(e2e)};
-    Cone cone;
-    const double norms[3] = {control[0].norm(), control[1].norm(), control[2].norm()};
-    if (!(norms[0] > 0.0) || !(norms[2] > 0.0)) {
-      cone_[n] = {Vec3::UnitZ(), kPi};  // degenerate triangle: no cone
-      continue;
-    }
-    Vec3 axis = control[0] / norms[0] + control[2] / norms[2];
-    if (norms[1] > 0.0) axis += control[1] / norms[1];
-    if (!(axis.norm() > 1e-12)) {
-      cone_[n] = {Vec3::UnitZ(), kPi};
-      continue;
-    }
-    cone.axis = axis.normalized();
-    for (int k = 0; k < 3; ++k)
-      if (norms[k] > 0.0) cone.half_angle = std::max(cone.half_angle, angle_between(cone.axis, control[k]));
-    cone_[n] = cone;
   }
   // Top-down: the first node on each path that passes is culled, with everything below it.
   int culled = 0;

@@ -30,8 +30,10 @@ class SelfCollisionCulling {
   // connectivity: a node containing one is never culled.
   void rebuild(const AabbTree& tree, const Faces& faces, const std::vector<char>& face_self);
   // Marks the nodes whose patch cannot come within `margin` of itself while moving linearly from
-  // x to x_end. Returns the number of culled nodes (telemetry).
-  int update(const AabbTree& tree, const Faces& faces, const Positions& x, const Positions& x_end, double margin);
+  // x to x_end. Returns the number of culled nodes (telemetry). The cones are computed on
+  // `threads` threads, with the same result for any count.
+  int update(const AabbTree& tree, const Faces& faces, const Positions& x, const Positions& x_end, double margin,
+             int threads = 1);
   // Per tree node: 1 when its self-pairs can be skipped (after update()).
   const std::vector<char>& culled() const { return culled_; }
   // Boundary segments above which a node is not tested (its children are): bounds the quadratic test.
@@ -43,12 +45,14 @@ class SelfCollisionCulling {
     double half_angle = 0.0;  // radians; >= pi/2 means no useful cone
   };
   static Cone merge(const Cone& a, const Cone& b);
+  static Cone leaf_cone(const Faces& faces, int leaf, const Positions& x, const Positions& x_end);
   bool boundary_clear(int node, const Vec3& axis, const Positions& x, const Positions& x_end, double margin) const;
 
   std::vector<char> connected_;                         // per node
   std::vector<std::vector<std::array<int, 2>>> boundary_;  // per node: edges used by one of its faces
   std::vector<Cone> cone_;                              // per node, per update
   std::vector<char> culled_;                            // per node, per update
+  std::vector<std::vector<int>> by_height_;             // nodes by height above the leaves (leaves: 0)
 };
 
 }  // namespace weft
