@@ -453,9 +453,11 @@ void SmoothedAggregation::update_level_values(int l, int threads) {
   for (std::int64_t k = 0; k < static_cast<std::int64_t>(r.value.size()); ++k)
     r.value[k] = p.value[level.r_source[k]].transpose();
 
-  // Galerkin operator A_c = P^T (A P) + (I - Q).
+  // Galerkin operator A_c = P^T (A P) + (I - Q). The restriction's product has the coarse
+  // level's rows but the fine level's work (each coarse row sums its aggregate's rows of A P):
+  // it gets the fine level's threads.
   multiply_values(a, p, level.ap, th);
-  multiply_values(r, level.ap, next.a, thc);
+  multiply_values(r, level.ap, next.a, th);
   for (int J = 0; J < nc; ++J) {
     Mat3f& d = next.a.value[next.diagonal[J]];
     d = (d.cast<double>() + Mat3::Identity() - level.kept[J]).cast<float>();
