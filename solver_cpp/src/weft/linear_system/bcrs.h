@@ -152,12 +152,14 @@ class BcrsMatrix {
       return idx[k];
   }
 
-  // float32: y (4 lanes, the 4th ignored) += a * x for a column-major block, x rounded to
-  // float32. Reads one float past the block's last column (values_ is padded).
-  static inline __m128 accumulate4(const float* a, const double* xc, __m128 y) {
-    y = _mm_add_ps(y, _mm_mul_ps(_mm_loadu_ps(a), _mm_set1_ps(static_cast<float>(xc[0]))));
-    y = _mm_add_ps(y, _mm_mul_ps(_mm_loadu_ps(a + 3), _mm_set1_ps(static_cast<float>(xc[1]))));
-    return _mm_add_ps(y, _mm_mul_ps(_mm_loadu_ps(a + 6), _mm_set1_ps(static_cast<float>(xc[2]))));
+  // float32: y (4 lanes, the 4th ignored) += a * x for a column-major block; xc: the column's
+  // x rounded to float32, 4 lanes (x_float_). Reads one float past the block's last column
+  // (values_ is padded).
+  static inline __m128 accumulate4(const float* a, const float* xc, __m128 y) {
+    const __m128 xv = _mm_loadu_ps(xc);
+    y = _mm_add_ps(y, _mm_mul_ps(_mm_loadu_ps(a), _mm_shuffle_ps(xv, xv, 0x00)));
+    y = _mm_add_ps(y, _mm_mul_ps(_mm_loadu_ps(a + 3), _mm_shuffle_ps(xv, xv, 0x55)));
+    return _mm_add_ps(y, _mm_mul_ps(_mm_loadu_ps(a + 6), _mm_shuffle_ps(xv, xv, 0xAA)));
   }
 
   // One row of the fixed part, four blocks per iteration, then the precomputed remainder.
@@ -166,17 +168,18 @@ class BcrsMatrix {
     int k = row_start_[r];
     const Scalar* a = values_.data() + 9 * static_cast<size_t>(k);
     if constexpr (std::is_same_v<Scalar, float>) {
+      const float* xf = x_float_.data();
       __m128 y = _mm_setzero_ps();
       for (int q = quads_[r]; q > 0; --q, k += 4, a += 36) {
-        y = accumulate4(a, x + 3 * column_of(idx, k, r), y);
-        y = accumulate4(a + 9, x + 3 * column_of(idx, k + 1, r), y);
-        y = accumulate4(a + 18, x + 3 * column_of(idx, k + 2, r), y);
-        y = accumulate4(a + 27, x + 3 * column_of(idx, k + 3, r), y);
+        y = accumulate4(a, xf + 4 * column_of(idx, k, r), y);
+        y = accumulate4(a + 9, xf + 4 * column_of(idx, k + 1, r), y);
+        y = accumulate4(a + 18, xf + 4 * column_of(idx, k + 2, r), y);
+        y = accumulate4(a + 27, xf + 4 * column_of(idx, k + 3, r), y);
       }
       switch (remainders_[r]) {
-        case 3: y = accumulate4(a + 18, x + 3 * column_of(idx, k + 2, r), y); [[fallthrough]];
-        case 2: y = accumulate4(a + 9, x + 3 * column_of(idx, k + 1, r), y); [[fallthrough]];
-        case 1: y = accumulate4(a, x + 3 * column_of(idx, k, r), y); break;
+        case 3: y = accumulate4(a + 18, xf + 4 * column_of(idx, k + 2, r), y); [[fallthrough]];
+        case 2: y = accumulate4(a + 9, xf + 4 * column_of(idx, k + 1, r), y); [[fallthrough]];
+        case 1: y = accumulate4(a, xf + 4 * column_of(idx, k, r), y); break;
         default: break;
       }
       alignas(16) float lanes[4];
@@ -221,6 +224,19 @@ class BcrsMatrix {
   void multiply_with(const Index* idx, const double* x, double* y, int threads, double* chunk_dots) const {
     const bool with_transient = !transient_rows_.empty();
     const int chunks = static_cast<int>((rows_ + kReductionChunk - 1) / kReductionChunk);
+    if constexpr (std::is_same_v<Scalar, float>) {
+      // x rounded to float32 once per product (not once per block that reads it), 4 lanes per
+      // vertex for one load per block: the same roundings, the same bits.
+      x_float_.resize(4 * static_cast<size_t>(rows_));
+#pragma omp parallel for schedule(static) num_threads(threads)
+      for (int r = 0; r < rows_; ++r) {
+        float* xf = x_float_.data() + 4 * static_cast<size_t>(r);
+        xf[0] = static_cast<float>(x[3 * r]);
+        xf[1] = static_cast<float>(x[3 * r + 1]);
+        xf[2] = static_cast<float>(x[3 * r + 2]);
+        xf[3] = 0.0f;
+      }
+    }
 #pragma omp parallel for schedule(static) num_threads(threads)
     for (int c = 0; c < chunks; ++c) {
       const int begin = static_cast<int>(c * kReductionChunk);
@@ -246,6 +262,7 @@ class BcrsMatrix {
   std::vector<int> quads_;
   std::vector<std::uint8_t> remainders_;
   std::vector<Scalar> values_;  // 9 per block, plus 3 of padding (4-wide loads)
+  mutable std::vector<float> x_float_;  // float32: the multiplied x, 4 lanes per vertex (scratch)
   std::vector<int> transient_rows_, transient_start_, transient_slot_;
   std::vector<std::int32_t> transient_columns_;
   std::vector<Scalar> transient_values_;
