@@ -47,16 +47,19 @@ DEFAULT_FRAMES = {
 }
 
 
-def build_scene(name: str, directory: Path, frames: int) -> Any:
+def build_scene(name: str, directory: Path, frames: int, features: dict[str, Any] | None = None) -> Any:
     """The resolved weft scene of a named contact scene, at least `frames` long when the builder
-    takes a frame count."""
+    takes a frame count; `features` overrides switches of the shot's `features`."""
     from scenes.contact import SCENES
     from weft.shot import parse_shot
     from weft.solver_setup import resolve_scene
 
     make = SCENES[name]
     kwargs = {"frames": frames} if "frames" in inspect.signature(make).parameters else {}
-    return resolve_scene(parse_shot(make(directory, **kwargs)), directory)
+    shot = make(directory, **kwargs)
+    if features:
+        shot["features"] = {**shot.get("features", {}), **features}
+    return resolve_scene(parse_shot(shot), directory)
 
 
 def run_weft(scene: Any, frames: int, threads: int) -> dict[str, Any]:
@@ -117,7 +120,7 @@ def measure(scene: Any, solver: str, run: dict[str, Any], threads: int) -> dict[
 
 
 def run_scene(name: str, frames: int | None, threads: int, peer: str | None,
-              blender_mass: str = "mapped") -> list[dict[str, Any]]:
+              blender_mass: str = "mapped", self_cost: bool = False) -> list[dict[str, Any]]:
     with tempfile.TemporaryDirectory(prefix=f"weft-contact-{name}-") as tmp:
         wanted = frames or DEFAULT_FRAMES[name]
         scene = build_scene(name, Path(tmp), wanted)
@@ -128,6 +131,17 @@ def run_scene(name: str, frames: int | None, threads: int, peer: str | None,
                    telemetry=weft_breakdown(weft_run["telemetry"]),
                    telemetry_frames=[t.model_dump() for t in weft_run["telemetry"]])
         rows = [row]
+        if self_cost and scene.shot.features.self_collision is not False:
+            # The same scene with self-collision switched off, run right after: what it costs.
+            off = build_scene(name, Path(tmp), wanted, {"self_collision": False})
+            off_run = run_weft(off, wanted, threads)
+            off_row = measure(off, "weft", off_run, threads)
+            off_row.update(scene=name, solver="weft, self off", failure=off_run["failure"],
+                           telemetry=weft_breakdown(off_run["telemetry"]))
+            if row["s_per_frame_mean"] and off_row["s_per_frame_mean"]:
+                row["self_collision_cost"] = row["s_per_frame_mean"] / off_row["s_per_frame_mean"]
+                off_row["rest"] = f"self-collision costs {row['self_collision_cost']:.2f}x"
+            rows.append(off_row)
         if peer == "blender":
             from bench.blender_peer import run_peer
 
@@ -163,7 +177,7 @@ def format_tables(rows: list[dict[str, Any]]) -> list[Any]:
         if "frames" not in r:
             main.add_row(r["scene"], r["solver"], *["-"] * 12, "failed: " + r["failure"].splitlines()[0][:80])
             continue
-        note = "rest: " + r.get("rest", "")
+        note = r.get("rest", "") if r["solver"] == "weft, self off" else "rest: " + r.get("rest", "")
         if r.get("failure"):
             note += f"; stopped: {r['failure'][:60]}"
         main.add_row(
@@ -175,17 +189,18 @@ def format_tables(rows: list[dict[str, Any]]) -> list[Any]:
             _fmt(r["max_speed_m_s"], ".2f"), "yes" if r["nan"] else "no", note,
         )
     steps = Table(title="weft step breakdown (per simulated frame; CG iterations per substep)")
-    for column in ("scene", "build s", "solve s", "of which setup s", "collision s", "collision share", "gia s", "CG it/substep",
-                   "CCD cand/frame", "contacts in solve/frame", "prox pairs/frame", "impact zones", "unresolved",
+    for column in ("scene", "build s", "solve s", "of which setup s", "collision s", "collision share", "gia s",
+                   "CG it/substep", "CCD cand/frame", "contacts in solve/frame", "prox pairs/frame", "impact zones", "unresolved",
                    "unconverged"):
         steps.add_column(column, justify="left" if column == "scene" else "right")
     for r in rows:
         t = r.get("telemetry")
-        if r["solver"] != "weft" or not t:
+        if not r["solver"].startswith("weft") or not t:
             continue
+        label = r["scene"] if r["solver"] == "weft" else f"{r['scene']} ({r['solver']})"
         steps.add_row(
-            r["scene"], *(f"{t[k]:.3f}" for k in ("build_seconds_per_frame", "solve_seconds_per_frame",
-                                                   "setup_seconds_per_frame", "collision_seconds_per_frame")),
+            label, *(f"{t[k]:.3f}" for k in ("build_seconds_per_frame", "solve_seconds_per_frame",
+                                             "setup_seconds_per_frame", "collision_seconds_per_frame")),
             f"{t['collision_share']:.0%}", f"{t['gia_seconds_per_frame']:.3f}",
             f"{t['cg_iterations_per_substep']:.0f}", f"{t['ccd_candidates_per_frame']:.0f}",
             f"{t['contact_constraints_per_frame']:.0f}", f"{t['proximity_pairs_per_frame']:.0f}",
@@ -204,6 +219,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--blender-mass", choices=["mapped", "default"], default="default",
                         help="Blender vertex mass: its default 0.3 kg (default; mapped masses leave Blender's cloth "
                              "floating under its other defaults) or density x area (mapped)")
+    parser.add_argument("--self-cost", action="store_true",
+                        help="also run weft with self-collision off: the cost of self-collision per scene")
     args = parser.parse_args(argv)
     names = args.scenes.split(",") if args.scenes else list(DEFAULT_FRAMES)
     unknown = [n for n in names if n not in DEFAULT_FRAMES]
@@ -229,7 +246,7 @@ def main(argv: list[str] | None = None) -> int:
     rows: list[dict[str, Any]] = []
     for name in names:
         console.print(f"[dim]{name} ...[/dim]")
-        rows.extend(run_scene(name, args.frames, args.threads, args.peer, args.blender_mass))
+        rows.extend(run_scene(name, args.frames, args.threads, args.peer, args.blender_mass, args.self_cost))
     for table in format_tables(rows):
         console.print(table)
     if args.json:

@@ -106,3 +106,14 @@ def test_metrics_flag_non_finite_positions() -> None:
     m = contact_metrics(np.stack([cloth, bad]), faces, np.ones((1, 3)), [two_boxes_merged()], np.array([0.1]), 24.0)
     assert m["nan"] and m["first_nonfinite_frame"] == 1
     assert m["inside_final"] is None and "gap_min_m" not in m
+
+
+def test_self_cost_runs_the_scene_again_with_self_collision_off() -> None:
+    from bench.contact import run_scene
+
+    rows = run_scene("sleeve_swing", 3, 1, None, self_cost=True)
+    on, off = rows
+    assert (on["solver"], off["solver"]) == ("weft", "weft, self off")
+    assert on["self_collision_cost"] == pytest.approx(on["s_per_frame_mean"] / off["s_per_frame_mean"])
+    assert off["telemetry"]["ccd_candidates_per_frame"] < on["telemetry"]["ccd_candidates_per_frame"]
+    assert "self-collision costs" in off["rest"]
