@@ -141,7 +141,7 @@ void CollisionSystem::constrain_contacts(const Positions& x, const Positions& v,
 }
 
 void CollisionSystem::redetect(std::vector<int>& hits) {
-  detection_.collect(step_, *filter_, frame_, true);
+  detection_.collect_changed(step_, *filter_, frame_);
   ccd_.pass(step_, props_, false, &hits, true, frame_);
 }
 
@@ -181,7 +181,12 @@ void CollisionSystem::respond(const Positions& x, Positions& v, double h, const 
   if (settings_.ccd) {
     int& iteration = step_.ccd_iteration;
     for (iteration = 0; iteration < settings_.ccd_iterations; ++iteration) {
-      detection_.collect(step_, *filter_, frame_, true);
+      // Later passes re-test only pairs with a vertex whose velocity changed: only those pairs
+      // are looked for (collect_changed), around the changed faces.
+      if (iteration == 0)
+        detection_.collect(step_, *filter_, frame_, true);
+      else
+        detection_.collect_changed(step_, *filter_, frame_);
       ++frame_.iterations;
       if (ccd_.pass(step_, props_, true, nullptr, iteration > 0, frame_) == 0) break;
     }

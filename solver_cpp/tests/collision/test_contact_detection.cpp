@@ -3,8 +3,10 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <random>
 #include <set>
 
+#include "support/grid_faces.h"
 #include "weft/collision/contact_detection.h"
 
 namespace weft {
@@ -89,6 +91,73 @@ TEST(ContactDetection, SharedVerticesAndEdgesAreNotPaired) {
   // Vertex 0 against face 1, vertex 3 against face 0; edges (0,1)x(3,2) and (2,0)x(1,3).
   EXPECT_EQ(std::count_if(pairs.begin(), pairs.end(), [](const FeaturePair& p) { return !p.edge_edge; }), 2);
   EXPECT_EQ(std::count_if(pairs.begin(), pairs.end(), [](const FeaturePair& p) { return p.edge_edge; }), 2);
+}
+
+// An n x n grid in the xz plane (spacing 1 cm) folded about x = 5.5 cm so that its far half
+// lies 2 mm above the near half: pairs across the fold survive self-culling, those inside
+// each flat half are culled.
+struct FoldedGrid {
+  Faces faces;
+  Positions x;
+  explicit FoldedGrid(int n) : faces(testing::grid_faces(n)), x(n * n, 3) {
+    for (int i = 0; i < n; ++i)
+      for (int j = 0; j < n; ++j) {
+        const double u = 0.01 * i;
+        x.row(i * n + j) << (u <= 0.055 ? u : 0.11 - u), (u <= 0.055 ? 0.0 : 0.002), 0.01 * j;
+      }
+  }
+};
+
+std::set<std::array<int, 6>> examined(const std::vector<FeaturePair>& pairs, const std::vector<char>& changed) {
+  std::set<std::array<int, 6>> out;
+  for (const FeaturePair& p : pairs)
+    if (std::any_of(p.point.begin(), p.point.end(), [&](int q) { return q >= 0 && changed[q]; }))
+      out.insert({p.point[0], p.point[1], p.point[2], p.point[3], p.body * 2 + (p.ccd ? 1 : 0), p.edge_edge ? 1 : 0});
+  return out;
+}
+
+TEST(ContactDetection, ChangedFacesGiveTheIncrementalPassTheFullListsPairs) {
+  const FoldedGrid grid(12);
+  const int n = static_cast<int>(grid.x.rows());
+  // A body: two large triangles 1 mm below the sheet.
+  Faces body_faces(2, 3);
+  body_faces << 0, 1, 2, 0, 2, 3;
+  Positions body_x(4, 3);
+  body_x << -0.05, -0.001, -0.05, 0.2, -0.001, -0.05, 0.2, -0.001, 0.2, -0.05, -0.001, 0.2;
+  const std::vector<KinematicBody> bodies = {KinematicBody(body_faces, body_x)};
+  const int face_count = static_cast<int>(grid.faces.rows());
+  for (int threads : {1, 2}) {
+    ContactDetection detection(grid.faces, grid.x, std::vector<char>(face_count, 1), std::vector<char>(face_count, 1),
+                               std::vector<double>(face_count, 0.003), bodies, {1});
+    detection.set_threads(threads);
+    std::mt19937 rng(3);
+    std::uniform_real_distribution<double> unit(-1.0, 1.0);
+    Positions v(n, 3);
+    for (int i = 0; i < n; ++i) v.row(i) << 0.1 * unit(rng), 0.2 * unit(rng), 0.1 * unit(rng);
+    CollisionStep step;
+    step.begin(grid.x, v, 0.01);
+    step.body_start = {body_x};
+    step.body_end = {body_x};
+    CollisionTelemetry frame;
+    // Some vertices change velocity (as after a pass's impulses).
+    for (int i = 0; i < n; i += 5) {
+      v.row(i) *= -2.0;
+      step.moved(i);
+      step.changed[i] = 1;
+    }
+    detection.collect(step, ContactFilter(), frame, true);
+    const auto full = examined(step.pairs, step.changed);
+    ASSERT_GT(full.size(), 50u);
+    const size_t full_size = step.pairs.size();
+    detection.collect_changed(step, ContactFilter(), frame);
+    EXPECT_EQ(examined(step.pairs, step.changed), full);
+    EXPECT_LT(step.pairs.size(), full_size);  // fewer pairs than the whole list
+    // Each pair once (a vertex-triangle and an edge-edge pair may share their four indices).
+    std::set<std::array<int, 6>> unique;
+    for (const FeaturePair& p : step.pairs)
+      unique.insert({p.point[0], p.point[1], p.point[2], p.point[3], p.body, p.edge_edge ? 1 : 0});
+    EXPECT_EQ(unique.size(), step.pairs.size());
+  }
 }
 
 }  // namespace

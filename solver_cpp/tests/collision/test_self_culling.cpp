@@ -5,6 +5,7 @@
 
 #include <cmath>
 
+#include "support/grid_faces.h"
 #include "weft/collision/self_culling.h"
 
 namespace weft {
@@ -14,16 +15,9 @@ namespace {
 struct Grid {
   Faces faces;
   Positions x;
-  explicit Grid(int n, double y = 0.0) : faces(2 * (n - 1) * (n - 1), 3), x(n * n, 3) {
+  explicit Grid(int n, double y = 0.0) : faces(testing::grid_faces(n)), x(n * n, 3) {
     for (int i = 0; i < n; ++i)
       for (int j = 0; j < n; ++j) x.row(i * n + j) << 0.01 * i, y, 0.01 * j;
-    int f = 0;
-    for (int i = 0; i + 1 < n; ++i)
-      for (int j = 0; j + 1 < n; ++j) {
-        const int a = i * n + j, b = a + 1, c = a + n, d = c + 1;
-        faces.row(f++) << a, b, d;
-        faces.row(f++) << a, d, c;
-      }
   }
 };
 

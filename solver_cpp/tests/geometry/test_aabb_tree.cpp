@@ -65,4 +65,16 @@ TEST(AabbTree, ParallelTraversalsEqualTheSerialOnes) {
   parallel.clear();
   ta.self_pairs(parallel, &culled, 4);
   EXPECT_EQ(parallel, serial);
+
+  // topmost_marked: an overlapping pair is skipped exactly when both leaves have the same
+  // topmost culled node above them.
+  std::vector<int> top;
+  ta.topmost_marked(culled, top);
+  ASSERT_EQ(top.size(), a.size());
+  std::set<std::pair<int, int>> kept;
+  for (const auto& [i, j] : expected)
+    if (top[i] < 0 || top[i] != top[j]) kept.insert({i, j});
+  const std::set<std::pair<int, int>> culled_found(serial.begin(), serial.end());
+  EXPECT_EQ(culled_found, kept);
+  EXPECT_LT(kept.size(), expected.size());
 }

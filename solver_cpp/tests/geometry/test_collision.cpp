@@ -1,6 +1,8 @@
 // Collision module unit tests: CCD edge cases, exact predicates, intersection counting.
 #include <gtest/gtest.h>
 
+#include <random>
+
 #include "weft/collision/ccd.h"
 #include "weft/geometry/exact_predicates.h"
 #include "weft/geometry/intersection_count.h"
@@ -46,6 +48,36 @@ TEST(ExactPredicates, Orient3dSignsAndCoplanarity) {
   const Vec3 o(1e8, 1e8, 1e8);
   EXPECT_EQ(orient3d(o + kA, o + kB, o + kC, o + Vec3(0.25, 0.25, 0)), 0);
   EXPECT_EQ(orient3d(o + kA, o + kB, o + kC, o + Vec3(0.25, 0.25, -1.4901161193847656e-8)), 1);
+}
+
+// orient2d against an exact integer determinant: integer coordinates up to 2^40 (exact in
+// double), points on or next to a line, so the float filter must defer to the expansion.
+TEST(ExactPredicates, Orient2dMatchesExactIntegerSigns) {
+  std::mt19937_64 rng(11);
+  std::uniform_int_distribution<long long> coordinate(-(1LL << 40), 1LL << 40), step(-8, 8), nudge(-1, 1);
+  int zeros = 0, filtered = 0;
+  for (int q = 0; q < 20000; ++q) {
+    const long long ax = coordinate(rng), ay = coordinate(rng), dx = step(rng), dy = step(rng);
+    const long long k = step(rng) * 1000003, m = step(rng) * 999983;
+    // b and c on the line through a with direction (dx, dy), c nudged off it half the time.
+    const long long bx = ax + k * dx, by = ay + k * dy;
+    const long long cx = ax + m * dx + (q % 2 ? nudge(rng) : 0), cy = ay + m * dy + (q % 2 ? nudge(rng) : 0);
+    const __int128 det = static_cast<__int128>(ax - cx) * (by - cy) - static_cast<__int128>(ay - cy) * (bx - cx);
+    const int expected = det > 0 ? 1 : (det < 0 ? -1 : 0);
+    zeros += expected == 0;
+    filtered += expected != 0;
+    ASSERT_EQ(orient2d(static_cast<double>(ax), static_cast<double>(ay), static_cast<double>(bx),
+                       static_cast<double>(by), static_cast<double>(cx), static_cast<double>(cy)),
+              expected)
+        << q;
+  }
+  EXPECT_GT(zeros, 5000);
+  EXPECT_GT(filtered, 2000);
+  // Clear cases take the filter, with the right sign.
+  EXPECT_EQ(orient2d(0, 0, 1, 0, 0, 1), 1);
+  EXPECT_EQ(orient2d(0, 0, 0, 1, 1, 0), -1);
+  // Four points sharing a coordinate exactly are coplanar.
+  EXPECT_EQ(orient3d(Vec3(0.1, 0.3, 0.7), Vec3(0.9, 0.3, 0.2), Vec3(0.4, 0.3, 0.5), Vec3(0.6, 0.3, 0.1)), 0);
 }
 
 TEST(IntersectionCount, TrianglePairs) {

@@ -28,6 +28,42 @@ Vec3 ccd_error_bound(const std::array<Vec3, 4>& start, const std::array<Vec3, 4>
   return (128.0 * kUnitRoundoff) * m + Vec3::Constant(kUnderflow);
 }
 
+bool stays_apart(const std::array<Vec3, 4>& start, const std::array<Vec3, 4>& end, bool edge_edge, double gap) {
+  // Two linearly moving edge vectors whose cross product is n(t), and d(t), from a point of the
+  // first feature's plane or line to the other feature.
+  //   vertex-triangle (p, a, b, c): n = (b - a) x (c - a), d = p - a;
+  //   edge-edge (a0, a1, b0, b1):   n = (a1 - a0) x (b1 - b0), d = b0 - a0.
+  Vec3 e0, e1, g0, g1, d0, d1;
+  if (edge_edge) {
+    e0 = start[1] - start[0], e1 = end[1] - end[0];
+    g0 = start[3] - start[2], g1 = end[3] - end[2];
+    d0 = start[2] - start[0], d1 = end[2] - end[0];
+  } else {
+    e0 = start[2] - start[1], e1 = end[2] - end[1];
+    g0 = start[3] - start[1], g1 = end[3] - end[1];
+    d0 = start[0] - start[1], d1 = end[0] - end[1];
+  }
+  if (!(e0.allFinite() && e1.allFinite() && g0.allFinite() && g1.allFinite() && d0.allFinite() && d1.allFinite()))
+    return false;
+  // Bernstein coefficients of the quadratic n and of the cubic f = n . d on t in [0, 1].
+  const Vec3 n0 = e0.cross(g0), n1 = 0.5 * (e0.cross(g1) + e1.cross(g0)), n2 = e1.cross(g1);
+  const double c0 = n0.dot(d0), c1 = (2.0 * n1.dot(d0) + n0.dot(d1)) / 3.0,
+               c2 = (n2.dot(d0) + 2.0 * n1.dot(d1)) / 3.0, c3 = n2.dot(d1);
+  const double n_max = std::sqrt(std::max({n0.squaredNorm(), n1.squaredNorm(), n2.squaredNorm()}));
+  Vec3 lo = start[0], hi = start[0];
+  for (int i = 0; i < 4; ++i) {
+    lo = lo.cwiseMin(start[i]).cwiseMin(end[i]);
+    hi = hi.cwiseMax(start[i]).cwiseMax(end[i]);
+  }
+  const double extent = (hi - lo).maxCoeff();
+  // Rounding of the differences and products is far below 1e-7 of the extent (plus the error
+  // bound of the coordinates' own magnitude), so the slack keeps the filter sound.
+  const double threshold = (gap + 1e-7 * extent + 4.0 * ccd_error_bound(start, end).maxCoeff()) * n_max;
+  if (!(threshold > 0.0) || !std::isfinite(threshold)) return false;
+  const double c_lo = std::min({c0, c1, c2, c3}), c_hi = std::max({c0, c1, c2, c3});
+  return c_lo > threshold || c_hi < -threshold;
+}
+
 namespace {
 
 struct Box {

@@ -50,6 +50,18 @@ CcdResult vertex_triangle_ccd(const std::array<Vec3, 4>& start, const std::array
 CcdResult edge_edge_ccd(const std::array<Vec3, 4>& start, const std::array<Vec3, 4>& end,
                         const CcdOptions& options = {});
 
+// A cheap sound filter run before the queries above (a deforming non-penetration filter in the
+// style of Tang, Manocha, Otaduy & Tong 2010): true when the pair provably stays more than `gap`
+// apart (Euclidean) over the whole step. The distance of the point to the triangle's plane
+// (vertex-triangle) or between the edges' lines (edge-edge), each a lower bound of the features'
+// distance, is |f(t)| / |n(t)| with n the quadratic normal (cross product of two linearly moving
+// edge vectors) and f = n . d a cubic; when all four Bernstein coefficients of f exceed gap times
+// the largest Bernstein coefficient norm of n (a bound of |n(t)| on [0, 1]), or all are below its
+// negative, that distance stays above gap. The threshold carries a slack for rounding (relative
+// to the query's extent plus ccd_error_bound), so it errs only towards "not apart". Input order
+// as in vertex_triangle_ccd / edge_edge_ccd.
+bool stays_apart(const std::array<Vec3, 4>& start, const std::array<Vec3, 4>& end, bool edge_edge, double gap);
+
 // The per-coordinate bound on the floating-point error of one evaluation of F (both queries):
 // 128 u max|x_k| over the 8 points (u = 2^-53) plus an underflow allowance; see ccd.cpp.
 Vec3 ccd_error_bound(const std::array<Vec3, 4>& start, const std::array<Vec3, 4>& end);

@@ -68,8 +68,8 @@ int CcdResponse::pass(CollisionStep& step, const ContactProperties& props, bool 
     options.absolute_tolerance = 0.1 * options.minimum_separation;
     options.max_boxes = 2000;
     if (!boxes_within(s, e, pair.edge_edge, options.minimum_separation)) return CcdResult{};
-    if (apart_all_step(s, e, pair.edge_edge, options.minimum_separation + 2.0 * options.absolute_tolerance))
-      return CcdResult{};
+    const double gap = options.minimum_separation + 2.0 * options.absolute_tolerance;
+    if (apart_all_step(s, e, pair.edge_edge, gap) || stays_apart(s, e, pair.edge_edge, gap)) return CcdResult{};
     return pair.edge_edge ? edge_edge_ccd(s, e, options) : vertex_triangle_ccd(s, e, options);
   };
   int candidates = 0;

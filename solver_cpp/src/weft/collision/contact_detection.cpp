@@ -210,4 +210,70 @@ void ContactDetection::collect(CollisionStep& step, const ContactFilter& filter,
   frame.broad_phase_seconds += timer.seconds();
 }
 
+void ContactDetection::collect_changed(CollisionStep& step, const ContactFilter& filter, CollisionTelemetry& frame) {
+  const Timer timer;
+  const Positions& x = *step.x;
+  const Positions& end = step.x_end;
+  const double fraction = kCcdSeparationFraction;
+  refit_cloth(x, end, fraction);
+  std::vector<FeaturePair>& pairs = step.pairs;
+  pairs.clear();
+  const int face_count = static_cast<int>(cloth_faces_.rows());
+  face_changed_.assign(face_count, 0);
+  changed_faces_.clear();
+  for (int f = 0; f < face_count; ++f)
+    if (step.changed[cloth_faces_(f, 0)] || step.changed[cloth_faces_(f, 1)] || step.changed[cloth_faces_(f, 2)]) {
+      face_changed_[f] = 1;
+      changed_faces_.push_back(f);
+    }
+  const auto changed_count = static_cast<std::int64_t>(changed_faces_.size());
+  if (any_self_ && changed_count > 0) {
+    leaf_culled_top_.clear();
+    if (self_culling_) {
+      culling_.update(cloth_tree_, cloth_faces_, x, end, fraction * largest_margin_, threads_);
+      cloth_tree_.topmost_marked(culling_.culled(), leaf_culled_top_);
+    }
+    ordered_append(changed_count, 16, threads_, pairs, chunk_pairs_, [&](std::int64_t k, std::vector<FeaturePair>& out) {
+      const int a = changed_faces_[k];
+      if (!face_self_[a]) return;
+      cloth_tree_.query(cloth_boxes_[a], [&](int b) {
+        // Each pair once: a changed partner takes it only from the smaller face.
+        if (b == a || !face_self_[b] || (face_changed_[b] && b < a)) return;
+        if (!leaf_culled_top_.empty() && leaf_culled_top_[a] >= 0 && leaf_culled_top_[a] == leaf_culled_top_[b]) return;
+        const int lo = std::min(a, b), hi = std::max(a, b);
+        const double gap = fraction * std::max(face_margin_[lo], face_margin_[hi]);
+        if (triangles_apart(corners(cloth_faces_, lo, x), corners(cloth_faces_, lo, end),
+                            corners(cloth_faces_, hi, x), corners(cloth_faces_, hi, end), gap))
+          return;
+        expand_triangle_pair(lo, hi, -1, filter, out);
+      });
+    });
+  }
+  for (size_t b = 0; b < bodies_.size() && changed_count > 0; ++b) {
+    if (!bodies_[b].collide) continue;
+    Body& state = bodies_[b];
+    const int body = static_cast<int>(b);
+    const Positions& body_start = step.body_start[b];
+    const Positions& body_end = step.body_end[b];
+    triangle_boxes(state.faces, body_start, body_end, {}, state.boxes);
+    state.tree.refit(state.boxes);
+    ordered_append(changed_count, 16, threads_, pairs, chunk_pairs_, [&](std::int64_t k, std::vector<FeaturePair>& out) {
+      const int cf = changed_faces_[k];
+      if (!face_collide_[cf]) return;
+      state.tree.query(cloth_boxes_[cf], [&](int bf) {
+        if (triangles_apart(corners(cloth_faces_, cf, x), corners(cloth_faces_, cf, end),
+                            corners(state.faces, bf, body_start), corners(state.faces, bf, body_end),
+                            fraction * face_margin_[cf]))
+          return;
+        const size_t first = out.size();
+        expand_triangle_pair(cf, bf, body, filter, out);
+        if (filter.pinched_face(cf, body))
+          for (size_t j = first; j < out.size(); ++j) out[j].ccd = false;
+      });
+    });
+  }
+  frame.broad_phase_pairs += static_cast<int>(pairs.size());
+  frame.broad_phase_seconds += timer.seconds();
+}
+
 }  // namespace weft

@@ -50,6 +50,14 @@ class ContactDetection {
   // separation, into step.pairs; else at step.x within one thickness, into
   // step.proximity_pairs. Cloth in a pinch region gets no CCD.
   void collect(CollisionStep& step, const ContactFilter& filter, CollisionTelemetry& frame, bool swept);
+  // The CCD list of a pass after the first (collision_system.cpp): only triangle pairs with a
+  // face that has a vertex in step.changed (velocity changed since the last pass), found by
+  // querying those faces' swept boxes against the trees instead of traversing them whole. Every
+  // feature pair with a changed point comes from such a triangle pair (each feature belongs to a
+  // face that holds its points), and the same culling, plane test and filter apply, so the
+  // pairs an incremental CCD pass examines are those of a full collect(.., true), in another
+  // order.
+  void collect_changed(CollisionStep& step, const ContactFilter& filter, CollisionTelemetry& frame);
   // Candidates for the exact intersection count at the static configuration x: triangle pairs
   // with overlapping boxes (no margin), without the self-pairs of tree nodes that cannot
   // intersect themselves (self_culling.h at margin 0). Refits the trees (collect refits anew).
@@ -84,6 +92,8 @@ class ContactDetection {
   std::vector<Aabb> cloth_boxes_;
   std::vector<Body> bodies_;
   std::vector<std::pair<int, int>> scratch_pairs_;
+  std::vector<int> changed_faces_, leaf_culled_top_;  // collect_changed()
+  std::vector<char> face_changed_;
   std::vector<std::vector<FeaturePair>> chunk_pairs_;  // collect(): per chunk of triangle pairs
   int threads_ = 1;
 };

@@ -72,6 +72,24 @@ void AabbTree::refit(const std::vector<Aabb>& leaves) {
   }
 }
 
+void AabbTree::topmost_marked(const std::vector<char>& marked, std::vector<int>& leaf_top) const {
+  int leaves = 0;
+  for (const Node& node : nodes_) leaves += node.leaf >= 0;
+  leaf_top.assign(leaves, -1);
+  if (nodes_.empty()) return;
+  std::vector<std::pair<int, int>> stack = {{0, marked[0] ? 0 : -1}};  // (node, topmost marked above)
+  while (!stack.empty()) {
+    const auto [n, top] = stack.back();
+    stack.pop_back();
+    const Node& node = nodes_[n];
+    if (node.leaf >= 0) {
+      leaf_top[node.leaf] = top;
+      continue;
+    }
+    for (int child : {node.left, node.right}) stack.push_back({child, top >= 0 ? top : (marked[child] ? child : -1)});
+  }
+}
+
 void AabbTree::self_pairs(std::vector<std::pair<int, int>>& out, const std::vector<char>* culled, int threads) const {
   if (nodes_.empty()) return;
   if (threads <= 1) {

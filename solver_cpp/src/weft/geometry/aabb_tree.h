@@ -58,6 +58,10 @@ class AabbTree {
   // the same list, in the same order, for any thread count.
   void self_pairs(std::vector<std::pair<int, int>>& out, const std::vector<char>* culled = nullptr,
                   int threads = 1) const;
+  // Per leaf, the topmost node above it (or itself) with marked[node] != 0, -1 where none. Two
+  // leaves share a marked node exactly when their entries are equal and not -1, so a pair
+  // that self_pairs(out, &marked) skips is one whose leaves have the same entry.
+  void topmost_marked(const std::vector<char>& marked, std::vector<int>& leaf_top) const;
   // Every pair (i of this tree, j of other) whose boxes overlap.
   void pairs(const AabbTree& other, std::vector<std::pair<int, int>>& out, int threads = 1) const;
   // Box of all leaves (the tree must not be empty).

@@ -156,6 +156,10 @@ int orient3d_exact_sign(const double* a, const double* b, const double* c, const
     if (det > bound) return 1;
     if (-det > bound) return -1;
   }
+  // Four points sharing one coordinate exactly (a flat sheet modelled in a coordinate plane)
+  // lie in a plane: the determinant is exactly zero, no expansion needed.
+  for (int k = 0; k < 3; ++k)
+    if (a[k] == d[k] && b[k] == d[k] && c[k] == d[k]) return 0;
   const double* rows[4] = {a, b, c, d};
   return coefficient_sign(rows, {-1, -1, -1, -1});
 }
@@ -193,6 +197,14 @@ int orient3d(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) {
 }
 
 int orient2d(double ax, double ay, double bx, double by, double cx, double cy) {
+  // Floating-point filter (Shewchuk's orient2dfast with his bound (3 + 16 eps) eps, eps =
+  // 2^-53; 1e-15 is larger): a determinant clearly away from zero has the sign it shows.
+  const double left = (ax - cx) * (by - cy), right = (ay - cy) * (bx - cx);
+  const double det = left - right, sum = std::fabs(left) + std::fabs(right);
+  if (sum > 1e-280) {
+    if (det > 1e-15 * sum) return 1;
+    if (-det > 1e-15 * sum) return -1;
+  }
   // det[a - c; b - c] = ax by - ax cy - cx by - ay bx + ay cx + cy bx (the cx cy terms cancel);
   // each product is split exactly by FMA inside ExactSum.
   ExactSum exact;
