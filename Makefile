@@ -7,7 +7,7 @@ PIP := $(VENV)/bin/pip
 STAMP := $(VENV)/.weft-deps
 CPP_BUILD := build/cpp
 
-.PHONY: setup system-deps build demo test test-cpp test-py bench bench-service clean
+.PHONY: setup system-deps build demo test test-cpp test-py regress bench bench-service clean
 
 # Debian packages: compiler, CMake, Eigen 3.4, GoogleTest, Redis. Skipped when all present.
 system-deps:
@@ -43,7 +43,12 @@ test-cpp: setup
 test-py: build
 	$(PY) -m pytest -q
 
-test: test-cpp test-py
+# The regression scenes through a real local stack (Redis, API, 2 workers), judged against
+# their references (scenes/regression/); reports in out/regress/.
+regress: build
+	$(VENV)/bin/weft regress --workers 2 -o out/regress
+
+test: test-cpp test-py regress
 
 # Service benchmark (not a test): API overhead per frame, status-poll latency under load,
 # frame-to-event latency. Local stack on loopback.

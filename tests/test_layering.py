@@ -8,7 +8,7 @@ import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-PACKAGES = ("weft", "server", "workers", "api_schemas", "scenes", "bench")
+PACKAGES = ("weft", "server", "workers", "api_schemas", "scenes", "bench", "regress")
 MAX_LINES = 600
 
 

@@ -3,6 +3,7 @@
 - ``weft.cli.local``: validate, run, info (a shot on this machine, into an HDF5 cache)
 - ``weft.cli.service``: up, submit, status, jobs, fetch, cancel, demo (the simulation service)
 - ``weft.cli.benchmarks``: ``weft bench ...`` (imports the ``bench`` package when it runs)
+- ``weft.cli.regress``: ``weft regress`` (imports the ``regress`` package when it runs)
 
 The command modules share ``weft.cli.common`` and never import this package's ``app``.
 """
@@ -11,7 +12,7 @@ from __future__ import annotations
 
 import typer
 
-from weft.cli import benchmarks, local, service
+from weft.cli import benchmarks, local, regress, service
 
 app = typer.Typer(
     name="weft",
@@ -23,6 +24,7 @@ app = typer.Typer(
 app.add_typer(local.app)
 app.add_typer(service.app)
 app.add_typer(benchmarks.app)
+app.add_typer(regress.app)
 
 
 def main() -> None:  # pragma: no cover
