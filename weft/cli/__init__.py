@@ -4,6 +4,7 @@
 - ``weft.cli.service``: up, submit, status, jobs, fetch, cancel, demo (the simulation service)
 - ``weft.cli.benchmarks``: ``weft bench ...`` (imports the ``bench`` package when it runs)
 - ``weft.cli.regress``: ``weft regress`` (imports the ``regress`` package when it runs)
+- ``weft.cli.report``: ``weft report speed-error`` (likewise)
 
 The command modules share ``weft.cli.common`` and never import this package's ``app``.
 """
@@ -12,7 +13,7 @@ from __future__ import annotations
 
 import typer
 
-from weft.cli import benchmarks, local, regress, service
+from weft.cli import benchmarks, local, regress, report, service
 
 app = typer.Typer(
     name="weft",
@@ -25,6 +26,7 @@ app.add_typer(local.app)
 app.add_typer(service.app)
 app.add_typer(benchmarks.app)
 app.add_typer(regress.app)
+app.add_typer(report.app)
 
 
 def main() -> None:  # pragma: no cover

@@ -1,0 +1,50 @@
+"""`weft report ...`: reports over the regression scenes (imports the `regress` package when it
+runs; regress is not part of the library)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.table import Table
+
+from weft.cli.common import console, fail, out
+
+app = typer.Typer(name="report", help="Reports: speed against error.", no_args_is_help=True)
+
+
+@app.command("speed-error")
+def speed_error(
+    scenes: Annotated[list[str], typer.Argument(help="Regression scenes (weft regress --list)")],
+    output: Annotated[Path, typer.Option("-o", "--out", help="Directory for the JSON and the plots")] = Path("out/speed_error"),
+    repeats: Annotated[int, typer.Option("--repeats", min=1, max=20, help="Runs per point (median wall time)")] = 3,
+    threads: Annotated[int, typer.Option("--threads", min=1, max=256)] = 2,
+    within: Annotated[float, typer.Option("--within", min=0.0, help="Error bound (mm RMS) for the cheapest setting")] = 10.0,
+) -> None:
+    """Sweep the settings that trade time for error (substeps, CG tolerance, preconditioner,
+    precision, linear path) on regression scenes: s/frame against error vs the converged
+    reference, the Pareto front (PNG per scene), JSON, and the cheapest setting within --within."""
+    from regress import speed_error
+    from regress.runs import unknown_scenes
+
+    unknown = unknown_scenes(scenes)
+    if unknown:
+        fail(f"SCENES: unknown scene(s) {', '.join(unknown)} (see `weft regress --list`)")
+    report = speed_error.run(scenes, output, repeats, threads, within, lambda m: console.print(f"[dim]{m}[/]"))
+    for name, data in report["scenes"].items():
+        table = Table("setting", "substeps", "s/frame", "error RMS mm", "error max mm", "Pareto", title=name,
+                      title_justify="left")
+        for p in data["points"]:
+            table.add_row(p["label"], str(p["substeps"]),
+                          f"{p['s_per_frame']:.4f}" if p["s_per_frame"] is not None else p["failure"] or "-",
+                          f"{p['error_rms_mm']:.3g}" if p["error_rms_mm"] is not None else "-",
+                          f"{p['error_max_mm']:.3g}" if p["error_max_mm"] is not None else "-",
+                          "*" if p["pareto"] else "")
+        out.print(table)
+        best = data["cheapest_within"]
+        out.print(f"{name}: cheapest within {within:g} mm RMS: "
+                  + (f"{best['label']} ({best['s_per_frame']:.4f} s/frame, {best['error_rms_mm']:.3g} mm)" if best
+                     else "none"))
+        out.print(f"plot: {data['plot']}")
+    out.print(f"json: {output / 'speed_error.json'}")
