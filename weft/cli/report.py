@@ -11,7 +11,7 @@ from rich.table import Table
 
 from weft.cli.common import console, fail, out
 
-app = typer.Typer(name="report", help="Reports: speed against error.", no_args_is_help=True)
+app = typer.Typer(name="report", help="Reports: speed against error, the stability map.", no_args_is_help=True)
 
 
 @app.command("speed-error")
@@ -48,3 +48,44 @@ def speed_error(
                      else "none"))
         out.print(f"plot: {data['plot']}")
     out.print(f"json: {output / 'speed_error.json'}")
+
+
+@app.command("stability")
+def stability(
+    maps: Annotated[str, typer.Option("--maps", help="Comma-separated: stiffness, density, pin_speed, body_speed")] = "",
+    json_path: Annotated[Path | None, typer.Option("--json", help="Also write every cell as JSON here")] = None,
+) -> None:
+    """Where the solver stays finite and bounded: stiffness, density, pin and body speed, each
+    against the time step (1/24 .. 1/960 s), on a small pinned sheet. Exit 1 if any run let a
+    NaN out (a failure must be a clean, named solver failure)."""
+    import json
+
+    from regress import stability as stability_map
+
+    names = [m.strip() for m in maps.split(",") if m.strip()] or list(stability_map.MAPS)
+    unknown = [m for m in names if m not in stability_map.MAPS]
+    if unknown:
+        fail(f"--maps: unknown map(s) {', '.join(unknown)}; known: {', '.join(stability_map.MAPS)}")
+    report = stability_map.run(names, lambda m: console.print(f"[dim]{m}[/]"))
+    nan = False
+    for name, data in report["maps"].items():
+        table = Table(data["setting"], *[f"h = 1/{int(report['fps'] * s)} s" for s in report["substeps"]],
+                      title=f"{name} against the time step", title_justify="left")
+        cells = {(c["value"], c["substeps"]): c for c in data["cells"]}
+        for value in data["values"]:
+            row = []
+            for s in report["substeps"]:
+                c = cells[(value, s)]
+                nan = nan or c["status"] == "NaN"
+                strain = f" {c['max_strain']:.2f}" if c["max_strain"] is not None else ""
+                row.append(f"{c['status']}{strain}")
+            table.add_row(f"{value:g}", *row)
+        out.print(table)
+    out.print("cells: status and max edge strain (ok: finite, strain <= 1.5, speeds bounded; failed@F: the solver "
+              "stopped cleanly at frame F)")
+    if json_path:
+        json_path.parent.mkdir(parents=True, exist_ok=True)
+        json_path.write_text(json.dumps(report, indent=2) + "\n")
+        out.print(f"json: {json_path}")
+    if nan:
+        raise typer.Exit(1)
