@@ -8,6 +8,8 @@ Thresholds live beside each scene (`scenes/regression/<name>/thresholds.yaml`):
     self_final: 0           # intersecting cloth/cloth triangle pairs at the last frame
     max_strain: 1.5         # longest edge over its rest length, any frame
     counts_ratio: 1.5       # CG iterations, CCD candidates, collision passes vs the baseline
+    energy_growth_j: 1e-6   # where energy is defined (no wind, no moving body or pin): total
+                            # energy at any frame above the initial one by more than this
 
 A missing key is not judged. Wall time is reported, never judged: it depends on the machine's
 load; the counts do not (the solver's results do not depend on the thread count).
@@ -130,6 +132,11 @@ def judge(name: str, scene: Any, run: Run, threads: int = 2) -> SceneResult:
                 result.failures.append(Failure(name, metric, frame0 + len(values) - 1, float(values[-1]), float(limits[key])))
         metrics.update({"inside_max": m["inside_max"], "cloth_body_final": m["cloth_body_pairs_final"],
                         "self_final": m["cloth_cloth_pairs_final"], "max_strain": m["max_strain"]})
+
+    if run.energy is not None and len(run.energy):
+        growth = run.energy - run.energy[0]
+        metrics["energy_growth_j"] = float(np.max(growth))
+        check("energy growth (J)", growth, limits.get("energy_growth_j"))
 
     measured = references.counts(run)
     baseline = reference.get("baseline_counts", {})

@@ -24,6 +24,7 @@ class Run:
     telemetry: dict[str, np.ndarray]
     wall_seconds: float
     failure: str | None = None
+    energy: np.ndarray | None = None  # kinetic + gravitational + elastic (J) at every frame, index 0 included
 
 
 def unknown_scenes(names: list[str]) -> list[str]:
@@ -51,10 +52,12 @@ def resolve(shot_path: Path) -> Any:
 
 def run_here(scene: Any, threads: int = 2) -> Run:
     """Simulates the whole shot in this process."""
-    from weft.simulate import SolverFailure, advance, new_simulation, telemetry_row
+    from weft.simulate import SolverFailure, advance, initial_telemetry, new_simulation, telemetry_row
 
     start = time.perf_counter()
     sim = new_simulation(scene, threads)
+    first = initial_telemetry(scene.shot.frame_range[0], sim)
+    energy = [first.kinetic_energy + first.potential_energy]
     positions, rows, failure = [np.array(sim.positions)], [], None
     for index in range(1, scene.shot.frame_count):
         try:
@@ -63,9 +66,10 @@ def run_here(scene: Any, threads: int = 2) -> Run:
             failure = f"frame {exc.frame}: {exc.reason}"
             break
         rows.append(telemetry_row(scene.shot.frame_range[0] + index, t).model_dump())
+        energy.append(rows[-1]["kinetic_energy"] + rows[-1]["potential_energy"])
         positions.append(np.array(sim.positions))
     columns = {k: np.array([r[k] for r in rows]) for k in (rows[0] if rows else {})}
-    return Run(np.stack(positions), columns, time.perf_counter() - start, failure)
+    return Run(np.stack(positions), columns, time.perf_counter() - start, failure, np.asarray(energy))
 
 
 def read_cache(path: Path) -> Run:
@@ -78,4 +82,5 @@ def read_cache(path: Path) -> Run:
     simulated = table[table["substeps"] > 0]
     columns = {name: np.asarray(simulated[name]) for name in table.dtype.names}
     failure = None if status == "complete" else f"cache status {status}: {error}"
-    return Run(positions, columns, float(np.sum(columns.get("total_seconds", 0.0))), failure)
+    energy = np.asarray(table["kinetic_energy"] + table["potential_energy"], dtype=np.float64)
+    return Run(positions, columns, float(np.sum(columns.get("total_seconds", 0.0))), failure, energy)

@@ -102,6 +102,15 @@ def test_a_failed_or_nan_run_fails(tmp_path: Path) -> None:
     assert "run failed (frame 5: diverged)" in metrics and "frames written" in metrics
 
 
+def test_energy_gained_fails_where_energy_is_defined(tmp_path: Path) -> None:
+    scene, run = run_edited("pendulum_sheet", tmp_path)
+    assert run.energy is not None and run.energy[-1] < run.energy[0]  # damped: energy only leaves
+    assert judge("pendulum_sheet", scene, run).passed
+    run.energy[7:] = run.energy[0] + 0.01  # a step that injects 10 mJ
+    failure = next(f for f in judge("pendulum_sheet", scene, run).failures if f.metric == "energy growth (J)")
+    assert failure.frame == scene.shot.frame_range[0] + 7 and failure.value > 0.009
+
+
 def test_reports_name_every_failure(tmp_path: Path) -> None:
     from regress.judge import Failure
 
