@@ -2,13 +2,19 @@
 
 Nothing here trusts an asset path: paths are resolved inside the shot's directory and may not
 leave it, file types are checked by suffix, meshes are checked for size (MAX_VERTICES),
-finiteness and index range. Problems are ShotErrors located by field path.
+finiteness and index range. Array assets are checked by their declared shape and type before
+they are read or decompressed (MAX_ARRAY_VALUES), and an HDF5 asset is read only through hard
+links and from its own storage: external links, soft links, external raw storage and virtual
+datasets are refused unread (they could reach any file the server can read). Problems are
+ShotErrors located by field path (422 in the service).
 """
 
 from __future__ import annotations
 
 import hashlib
+import zipfile
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -18,6 +24,8 @@ from weft.shot import ShotError
 MESH_SUFFIXES = {".obj", ".ply"}
 ARRAY_SUFFIXES = {".npz", ".npy", ".h5", ".hdf5"}
 MAX_VERTICES = 5_000_000
+# Values an array asset may declare (2 GiB as float64): checked before reading or decompressing.
+MAX_ARRAY_VALUES = 268_435_456
 
 
 def _resolve_asset(base_dir: Path, relative: str, field_path: str, suffixes: set[str]) -> Path:
@@ -32,27 +40,90 @@ def _resolve_asset(base_dir: Path, relative: str, field_path: str, suffixes: set
     return candidate
 
 
+def _checked_header(shape: tuple[int, ...], dtype: np.dtype, where: str, what: str) -> None:
+    """Refuse an array by its declared shape and type, before anything is read or decompressed."""
+    if dtype.hasobject or dtype.kind not in "biuf":
+        raise ShotError(where, f"{what} holds {dtype} values; expected numbers")
+    count = 1
+    for n in shape:
+        count *= int(n)
+    if count > MAX_ARRAY_VALUES:
+        raise ShotError(where, f"{what} declares shape {tuple(shape)} ({count} values), over the limit of "
+                               f"{MAX_ARRAY_VALUES}")
+
+
+def _npy_header(stream: Any, where: str, what: str) -> None:
+    try:
+        version = np.lib.format.read_magic(stream)
+        if version == (1, 0):
+            shape, _, dtype = np.lib.format.read_array_header_1_0(stream)
+        else:
+            shape, _, dtype = np.lib.format.read_array_header_2_0(stream)
+    except (ValueError, OSError, EOFError) as exc:
+        raise ShotError(where, f"{what} is not a valid .npy array: {exc}") from None
+    _checked_header(shape, dtype, where, what)
+
+
+def _hdf5_dataset(f: Any, key: str, where: str, name: str) -> Any:
+    """The dataset at `key`, reached through hard links only and stored in the file itself:
+    external and soft links, external raw storage and virtual datasets are refused before they
+    are followed (they could read any file the server can), with the same answer whether or not
+    their target exists."""
+    import h5py
+
+    node = f
+    parts = [p for p in key.split("/") if p]
+    if not parts:
+        raise ShotError(where + ".key", f"no dataset '{key}' in {name}")
+    for depth, part in enumerate(parts):
+        if not isinstance(node, h5py.Group) or part not in node:
+            raise ShotError(where + ".key", f"no dataset '{key}' in {name}")
+        link = node.get(part, getlink=True)
+        if not isinstance(link, h5py.HardLink):
+            kind = "an external link" if isinstance(link, h5py.ExternalLink) else "a soft link"
+            raise ShotError(where + ".key", f"'{'/'.join(parts[:depth + 1])}' in {name} is {kind}: refused "
+                                            "(an asset must hold its data itself)")
+        node = node[part]
+    if not isinstance(node, h5py.Dataset):
+        raise ShotError(where + ".key", f"no dataset '{key}' in {name}")
+    if node.is_virtual or node.external:
+        raise ShotError(where + ".key", f"dataset '{key}' in {name} is stored outside the file: refused "
+                                        "(an asset must hold its data itself)")
+    _checked_header(node.shape or (), node.dtype, where, f"dataset '{key}' in {name}")
+    return node
+
+
 def load_array(base_dir: Path, asset: ArrayAsset, field_path: str) -> np.ndarray:
+    """A numeric array from .npy, .npz (member `key`) or HDF5 (dataset `key`), its declared shape
+    and type checked against MAX_ARRAY_VALUES before it is read or decompressed."""
     path = _resolve_asset(base_dir, asset.path, field_path + ".path", ARRAY_SUFFIXES)
     key = asset.key or "positions"
     suffix = path.suffix.lower()
     try:
         if suffix == ".npy":
+            with open(path, "rb") as stream:
+                _npy_header(stream, field_path, asset.path)
             return np.asarray(np.load(path, allow_pickle=False), dtype=np.float64)
         if suffix == ".npz":
-            with np.load(path, allow_pickle=False) as archive:
-                if key not in archive:
-                    raise ShotError(field_path + ".key", f"'{key}' not in {asset.path} (has {sorted(archive.files)})")
-                return np.asarray(archive[key], dtype=np.float64)
+            with zipfile.ZipFile(path) as archive:
+                members = {n[:-4]: n for n in archive.namelist() if n.endswith(".npy")}
+                if key not in members:
+                    raise ShotError(field_path + ".key", f"'{key}' not in {asset.path} (has {sorted(members)})")
+                info = archive.getinfo(members[key])
+                if info.file_size > 8 * MAX_ARRAY_VALUES + 65536:
+                    raise ShotError(field_path, f"'{key}' in {asset.path} unpacks to {info.file_size} bytes, over "
+                                                f"the limit of {8 * MAX_ARRAY_VALUES + 65536}")
+                with archive.open(info) as stream:
+                    _npy_header(stream, field_path, f"'{key}' in {asset.path}")
+                with archive.open(info) as stream:
+                    return np.asarray(np.lib.format.read_array(stream, allow_pickle=False), dtype=np.float64)
         import h5py
 
         with h5py.File(path, "r") as f:
-            if key not in f or not isinstance(f[key], h5py.Dataset):
-                raise ShotError(field_path + ".key", f"no dataset '{key}' in {asset.path}")
-            return np.asarray(f[key][()], dtype=np.float64)
+            return np.asarray(_hdf5_dataset(f, key, field_path, asset.path)[()], dtype=np.float64)
     except ShotError:
         raise
-    except (OSError, ValueError) as exc:
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile, zipfile.LargeZipFile, KeyError) as exc:
         raise ShotError(field_path, f"cannot read {asset.path}: {exc}") from None
 
 

@@ -154,7 +154,7 @@ async def list_jobs(
     r: Store,
     owner: Owner,
     state: Annotated[JobState | None, Query(description="Only jobs in this state.")] = None,
-    offset: Annotated[int, Query(ge=0)] = 0,
+    offset: Annotated[int, Query(ge=0, le=1_000_000_000)] = 0,
     limit: Annotated[int, Query(ge=1, le=500)] = 50,
 ) -> JobList:
     index = jobstore.owner_key(owner)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 from collections.abc import Callable
+from pathlib import Path
 
 import redis
 from routes_support import MISSING_JOB, Api, assert_error, small_shot
@@ -36,6 +37,24 @@ def test_submit_multipart_with_an_asset(alice: Api) -> None:
                                       ("assets", ("meshes/sheet.obj", obj, "text/plain"))])
     assert r.status_code == 201, r.text
     assert alice.get(r.headers["location"]).json()["vertices"] == 4
+
+
+def test_submit_hdf5_asset_stored_externally_in_etc_passwd_is_a_422(alice: Api, tmp_path) -> None:
+    """Issue 15's file-read hole: the upload's dataset points at /etc/passwd; the job is refused
+    naming the field, and nothing of the file comes back."""
+    import h5py
+
+    size = Path("/etc/passwd").stat().st_size // 8 * 8
+    with h5py.File(tmp_path / "anim.h5", "w") as f:
+        f.create_dataset("positions", shape=(size // 24, 1, 3), dtype="<f8", external=[("/etc/passwd", 0, size)])
+    shot = small_shot("external", frames=4)
+    shot["bodies"] = [{"name": "b", "mesh": {"vertices": [[0, -1, 0], [1, -1, 0], [0, -1, 1]], "faces": [[0, 1, 2]]},
+                       "animation": {"path": "anim.h5"}}]
+    r = alice.post("/v1/jobs", files=[("shot", ("shot.json", json.dumps(shot), "application/json")),
+                                      ("assets", ("anim.h5", (tmp_path / "anim.h5").read_bytes(),
+                                                  "application/octet-stream"))])
+    assert_error(r, 422, "bodies[0].animation.key", "stored outside the file")
+    assert "root" not in r.text
 
 
 def test_submit_idempotency_key_returns_the_first_job(alice: Api, bob: Api) -> None:
@@ -85,6 +104,11 @@ def test_list_bad_query_names_the_field(alice: Api) -> None:
     assert_error(alice.get("/v1/jobs", params={"state": "exploded"}), 422, "query.state")
     assert_error(alice.get("/v1/jobs", params={"offset": -1}), 422, "query.offset", "greater than or equal to 0")
     assert_error(alice.get("/v1/jobs", params={"limit": 501}), 422, "query.limit", "less than or equal to 500")
+
+
+def test_list_offset_that_overflows_redis_integers_is_a_422_not_a_500(alice: Api) -> None:
+    assert_error(alice.get("/v1/jobs", params={"offset": 9223372036854775807}), 422, "query.offset",
+                 "less than or equal to 1000000000")
 
 
 def test_list_needs_a_key(check_auth: Callable[..., None]) -> None:
