@@ -19,6 +19,7 @@ from server.errors import ERRORS, ApiError
 from server.uploads import UploadError, read_limited, receive_multipart
 from server.validation import validate_shot
 from weft import jobstore
+from weft.assets import shot_hash
 
 IDEMPOTENCY = re.compile(r"^[A-Za-z0-9_.:-]{1,128}$")
 IDEMPOTENCY_TTL = 24 * 3600
@@ -98,10 +99,6 @@ async def submit_job(
 ) -> Response:
     if idempotency_key is not None and not IDEMPOTENCY.match(idempotency_key):
         raise ApiError(400, "Idempotency-Key must be 1-128 characters of letters, digits, '_', '-', '.', ':'")
-    if idempotency_key:
-        existing = await r.get(jobstore.idempotency_key(owner, idempotency_key))
-        if existing:
-            return duplicate_response(request, existing, await r.hget(jobstore.job_key(existing), "state"))
     content_type = request.headers.get("content-type", "")
     declared = request.headers.get("content-length")
     if declared and declared.isdigit() and int(declared) > settings.max_upload_bytes:
@@ -122,17 +119,23 @@ async def submit_job(
         else:
             raise ApiError(415, f"unsupported Content-Type {content_type!r}: use application/json or multipart/form-data")
         shot, vertices = await anyio.to_thread.run_sync(validate_shot, body, assets, uploaded, settings)
+        request_hash = await anyio.to_thread.run_sync(shot_hash, shot, assets)
         (job_dir / "shot.json").write_text(shot.model_dump_json())
         if idempotency_key:
             idem = jobstore.idempotency_key(owner, idempotency_key)
             if not await r.set(idem, job_id, nx=True, ex=IDEMPOTENCY_TTL):
                 existing = await r.get(idem)
                 shutil.rmtree(job_dir, ignore_errors=True)
+                first_hash = await r.hget(jobstore.job_key(existing), "request_hash")
+                if first_hash is not None and first_hash != request_hash:
+                    raise ApiError(409, f"Idempotency-Key {idempotency_key!r} was used for a different request "
+                                        f"(job {existing}): use a new key for a new shot")
                 return duplicate_response(request, existing, await r.hget(jobstore.job_key(existing), "state"))
         record: dict[str, Any] = {
             "id": job_id, "owner": owner, "name": shot.name, "state": "queued", "frames_done": 0,
             "frames_total": shot.frame_count, "frame_first": shot.frame_range[0],
             "frame_last": shot.frame_range[1], "vertices": vertices, "created": jobstore.now(), "attempts": 0,
+            "request_hash": request_hash,
         }
         pipe = r.pipeline(transaction=True)
         jobstore.queue_new_job(pipe, record)
@@ -185,6 +188,8 @@ async def cancel_job(
     request: Request, job_id: JobId, r: Store, owner: Owner, cancel: Annotated[AsyncScript, Depends(cancel_script)]
 ) -> Job:
     h = await load_job(r, owner, job_id)
+    if h.get("state") == "cancelled":
+        raise ApiError(409, f"job {job_id} already cancelled; nothing to cancel")
     payload = json.dumps({"state": "cancelled", "frames_done": int(h.get("frames_done", 0)),
                           "error_frame": None, "error_reason": None})
     result = await cancel(

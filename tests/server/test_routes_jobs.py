@@ -67,6 +67,21 @@ def test_submit_idempotency_key_returns_the_first_job(alice: Api, bob: Api) -> N
     assert other.status_code == 201 and other.json()["id"] != first.json()["id"]
 
 
+def test_idempotency_key_reused_with_a_different_body_is_a_409(alice: Api, settings: ServiceSettings) -> None:
+    key = {"Idempotency-Key": "render-43"}
+    first = alice.post("/v1/jobs", json=small_shot("first"), headers=key)
+    assert first.status_code == 201
+    jobs_before = sorted(p.name for p in settings.storage.joinpath("jobs").iterdir())
+    other = alice.post("/v1/jobs", json=small_shot("second"), headers=key)
+    assert_error(other, 409, "was used for a different request")
+    assert first.json()["id"] in other.json()["detail"]
+    assert sorted(p.name for p in settings.storage.joinpath("jobs").iterdir()) == jobs_before  # nothing left
+    # An invalid body under a used key is named like any invalid body, never answered with the first job.
+    bad = small_shot("bad")
+    bad["fps"] = -1
+    assert_error(alice.post("/v1/jobs", json=bad, headers=key), 422, "fps")
+
+
 def test_submit_bad_field_names_it_and_leaves_nothing(alice: Api,
                                                       settings: ServiceSettings, redis_db: redis.Redis) -> None:
     assert_error(alice.post("/v1/jobs", json={**small_shot(), "fps": "fast"}), 422, "fps")
@@ -149,8 +164,8 @@ def test_cancel_queued_job(alice: Api, redis_db: redis.Redis) -> None:
     assert redis_db.sismember(jobstore.state_key("cancelled"), job_id)
     ((event_id, fields),) = redis_db.xrange(jobstore.events_key(job_id))
     assert event_id == jobstore.final_event_id(5) and fields["type"] == "end"
-    again = alice.post(f"/v1/jobs/{job_id}/cancel")
-    assert again.status_code == 200 and again.json()["state"] == "cancelled"
+    # Cancelled is final: cancelling it again is a conflict, as for any final state.
+    assert_error(alice.post(f"/v1/jobs/{job_id}/cancel"), 409, "already cancelled")
 
 
 def test_cancel_finished_job_conflicts(alice: Api, finished_job: str) -> None:
