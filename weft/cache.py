@@ -141,31 +141,7 @@ class CacheWriter:
                 raise CacheError(f"{path} is not a weft cache")
             if old.attrs["shot_hash"] != shot_hash:
                 raise CacheError(f"{path} was written for a different shot (hash mismatch); refusing to resume")
-            state_index = int(old["state/frame_index"][0])
-            tmp = path.with_name(path.name + ".resume")
-            with h5py.File(tmp, "w", libver="latest") as new:
-                new.attrs.update(dict(old.attrs))
-                new.attrs["status"] = "running"
-                new.attrs["error"] = ""
-                for name in ("cloth", "bodies", "state"):
-                    old.copy(old[name], new, name)
-                frames = new.create_group("frames")
-                rows = state_index + 1
-                for name in ("positions", "velocities"):
-                    src = old["frames/" + name]
-                    dst = frames.create_dataset(
-                        name, shape=(rows, *src.shape[1:]), maxshape=(None, *src.shape[1:]),
-                        chunks=(1, *src.shape[1:]), dtype=np.float32,
-                    )
-                    for k in range(rows):
-                        dst[k] = src[k]
-                frames.create_dataset(
-                    "frame", data=old["frames/frame"][:rows], maxshape=(None,), chunks=(256,), dtype=np.int32
-                )
-                new.create_dataset(
-                    "telemetry", data=old["telemetry"][:rows], maxshape=(None,), chunks=(64,), dtype=TELEMETRY_DTYPE
-                )
-        os.replace(tmp, path)
+        _rewrite_completed(path, "running", "")
         f = h5py.File(path, "r+", libver="latest")
         f.swmr_mode = True
         writer = cls(f, path)
@@ -221,6 +197,54 @@ class CacheWriter:
         with h5py.File(self.path, "r+", libver="latest") as f:
             f.attrs["status"] = status
             f.attrs["error"] = error
+
+
+def _rewrite_completed(path: Path, status: str, error: str) -> None:
+    """Copy the frames up to the saved state (rows past it were never finished) into a fresh file
+    that replaces `path` atomically, with the given status: what a resume and a recovery need,
+    and readable by any HDF5 reader even when the writer died with the file open."""
+    with open_cache_reader(path) as old:
+        state_index = int(old["state/frame_index"][0])
+        tmp = path.with_name(path.name + ".rewrite")
+        with h5py.File(tmp, "w", libver="latest") as new:
+            new.attrs.update(dict(old.attrs))
+            new.attrs["status"] = status
+            new.attrs["error"] = error
+            for name in ("cloth", "bodies", "state"):
+                old.copy(old[name], new, name)
+            frames = new.create_group("frames")
+            rows = state_index + 1
+            for name in ("positions", "velocities"):
+                src = old["frames/" + name]
+                dst = frames.create_dataset(
+                    name, shape=(rows, *src.shape[1:]), maxshape=(None, *src.shape[1:]),
+                    chunks=(1, *src.shape[1:]), dtype=np.float32,
+                )
+                for k in range(rows):
+                    dst[k] = src[k]
+            frames.create_dataset(
+                "frame", data=old["frames/frame"][:rows], maxshape=(None,), chunks=(256,), dtype=np.int32
+            )
+            new.create_dataset(
+                "telemetry", data=old["telemetry"][:rows], maxshape=(None,), chunks=(64,), dtype=TELEMETRY_DTYPE
+            )
+    os.replace(tmp, path)
+
+
+def recover_cache(path: str | Path) -> dict[str, Any]:
+    """A cache whose writer died (status still 'running', the file possibly still flagged open for
+    writing, so that plain h5py refuses it): its finished frames rewritten into a clean file with
+    status 'interrupted', as `h5clear -s` would make it openable. Only for a cache nobody writes
+    any more; returns describe_cache of the result."""
+    path = Path(path)
+    with open_cache_reader(path) as f:
+        if f.attrs.get("format") != CACHE_FORMAT:
+            raise CacheError(f"{path} is not a weft cache")
+        status = str(f.attrs["status"])
+    if status != "running":
+        raise CacheError(f"{path} was closed by its writer (status {status}); nothing to recover")
+    _rewrite_completed(path, "interrupted", "the writer stopped without closing the cache (recovered)")
+    return describe_cache(path)
 
 
 def open_cache_reader(path: str | Path) -> h5py.File:

@@ -42,6 +42,16 @@ class RunSummary:
     telemetry: list[FrameTelemetry] = field(default_factory=list)
 
 
+class RunInterrupted(BaseException):
+    """Raised (from a signal handler) to stop a run between two HDF5 writes: the runner closes
+    its cache with status 'interrupted', so plain HDF5 readers can open it and `--resume`
+    continues it."""
+
+    def __init__(self, reason: str) -> None:
+        super().__init__(reason)
+        self.reason = reason
+
+
 class ShotRunner:
     def __init__(
         self,
@@ -98,6 +108,12 @@ class ShotRunner:
                     on_frame(FrameRecord(index, frame, self.frames_total, telemetry, time.perf_counter() - frame_start))
             else:
                 status = "complete" if self.frames_total == scene.frame_count else "partial"
+        except RunInterrupted as exc:
+            status, error = "interrupted", f"stopped by {exc.reason} after {writer.frames_written} frames"
+            raise
+        except KeyboardInterrupt:
+            status, error = "interrupted", f"stopped by SIGINT after {writer.frames_written} frames"
+            raise
         except BaseException as exc:
             error = str(exc) if isinstance(exc, SolverFailure) else f"{type(exc).__name__}: {exc}"
             raise

@@ -121,3 +121,67 @@ def test_resume_refuses_a_different_shot(tmp_path) -> None:
     other = write_shot(tmp_path / "other", frames=6, n=10)
     result = weft("run", str(other), "-o", str(cache), "--quiet", "--resume")
     assert result.returncode == 2 and "different shot" in result.stderr
+
+
+def start_run(tmp_path: Path, frames: int = 3000) -> tuple[subprocess.Popen, Path]:
+    """`weft run` on a long shot, returned once it has written a few frames."""
+    import time
+
+    shot = write_shot(tmp_path, frames=frames, n=24, substeps=8)
+    cache = tmp_path / "stopped.h5"
+    proc = subprocess.Popen([sys.executable, "-m", "weft.cli", "run", str(shot), "-o", str(cache), "--quiet"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline:
+        try:
+            with open_cache_reader(cache) as f:
+                if f["frames/frame"].shape[0] >= 4:
+                    return proc, cache
+        except Exception:  # not created yet
+            pass
+        time.sleep(0.05)
+    proc.kill()
+    raise AssertionError("the run wrote no frames")
+
+
+def plain_open_status(cache: Path) -> tuple[str, int]:
+    """Opened the way any HDF5 tool does (no SWMR, no weft)."""
+    import h5py
+
+    with h5py.File(cache, "r") as f:
+        return str(f.attrs["status"]), int(f["frames/frame"].shape[0])
+
+
+def test_sigterm_closes_the_cache_readable_by_plain_h5py_and_resumable(tmp_path) -> None:
+    import signal
+
+    proc, cache = start_run(tmp_path)
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130 and "stopped by SIGTERM" in err and "--resume" in err
+    status, rows = plain_open_status(cache)
+    assert status == "interrupted" and rows >= 4
+    resumed = weft("run", str(tmp_path / "shot.json"), "-o", str(cache), "--resume", "--frames", str(rows + 2), "-q")
+    assert resumed.returncode == 0, resumed.stderr
+    assert plain_open_status(cache) == ("partial", rows + 2)
+
+
+def test_a_writer_killed_outright_is_recovered_by_weft_info(tmp_path) -> None:
+    import h5py
+    import pytest
+
+    proc, cache = start_run(tmp_path)
+    proc.kill()  # SIGKILL: no handler runs, the file stays flagged open for writing
+    proc.communicate(timeout=60)
+    with pytest.raises(OSError):
+        h5py.File(cache, "r")
+    hint = weft("info", str(cache))
+    assert hint.returncode == 0 and "--recover" in hint.stderr
+    recovered = weft("info", str(cache), "--recover", "--json")
+    assert recovered.returncode == 0, recovered.stderr
+    summary = json.loads(recovered.stdout)
+    assert summary["status"] == "interrupted" and summary["frames_written"] >= 4
+    status, rows = plain_open_status(cache)
+    assert status == "interrupted" and rows == summary["frames_written"]
+    again = weft("info", str(cache), "--recover")
+    assert again.returncode == 2 and "nothing to recover" in again.stderr

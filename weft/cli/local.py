@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import signal
 from enum import Enum
 from pathlib import Path
 from typing import Annotated, Any, Optional
@@ -57,7 +58,7 @@ def run(
 ) -> None:
     """Simulate a shot into an HDF5 cache."""
     from weft.cache import CacheError
-    from weft.runner import FrameRecord, ShotRunner, SolverFailure
+    from weft.runner import FrameRecord, RunInterrupted, ShotRunner, SolverFailure
 
     scene = _load_scene(shot, linear_system.value if linear_system else None)
     if output.exists() and not resume:
@@ -83,10 +84,19 @@ def run(
             rate=f"{record.wall_seconds:.3f} s/frame",
         )
 
+    def interrupt(signum: int, _frame: object) -> None:
+        raise RunInterrupted(signal.Signals(signum).name)
+
+    for signum in (signal.SIGTERM, signal.SIGHUP):  # closed like Ctrl-C: the cache stays readable
+        signal.signal(signum, interrupt)
     try:
         with progress:
             task = progress.add_task(scene.shot.name, total=runner.frames_total, rate="")
             summary = runner.run(on_frame=on_frame)
+    except (RunInterrupted, KeyboardInterrupt) as exc:
+        reason = exc.reason if isinstance(exc, RunInterrupted) else "SIGINT"
+        fail(f"stopped by {reason}: {output} is closed with the frames finished so far; continue it with "
+             "--resume", code=130)
     except SolverFailure as exc:
         fail(f"solver failed at frame {exc.frame}: {exc.reason} (frames before it are in {output})", code=1)
     except CacheError as exc:
@@ -120,16 +130,22 @@ def _print_summary(cache: Path, wall_seconds: float) -> None:
 def info(
     cache: Annotated[Path, typer.Argument(help="HDF5 cache written by weft")],
     as_json: Annotated[bool, typer.Option("--json", help="Machine-readable output")] = False,
+    recover: Annotated[bool, typer.Option(
+        "--recover", help="The cache's writer died (status still 'running'): rewrite its finished frames into a "
+        "clean file, status 'interrupted', readable by any HDF5 reader (as h5clear -s); --resume continues it")] = False,
 ) -> None:
     """Show what a cache holds."""
-    from weft.cache import CacheError, describe_cache
+    from weft.cache import CacheError, describe_cache, recover_cache
 
     if not cache.is_file():
         fail(f"no such file: {cache}")
     try:
-        summary = describe_cache(cache)
+        summary = recover_cache(cache) if recover else describe_cache(cache)
     except CacheError as exc:
         fail(str(exc))
+    if summary["status"] == "running" and not as_json:
+        console.print("[yellow]status 'running': the cache is being written, or its writer died (then "
+                      "`weft info --recover` makes it readable everywhere and `weft run --resume` continues it)[/]")
     if as_json:
         out.print_json(json.dumps(summary))
         return
