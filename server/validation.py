@@ -65,4 +65,11 @@ def validate_shot(body: bytes, assets: Path, uploaded: set[str], settings: Servi
     if scene.vertex_count > settings.max_vertices:
         raise ApiError(422, f"invalid shot: cloth: {scene.vertex_count} vertices exceeds the limit of "
                        f"{settings.max_vertices}", [{"field": "cloth", "problem": "too many vertices"}])
+    cost = scene.vertex_count * max(shot.frame_count - 1, 0) * shot.substeps
+    if cost > settings.max_cost:
+        problem = (f"{scene.vertex_count} vertices x {shot.frame_count - 1} simulated frames x {shot.substeps} "
+                   f"substeps = {cost:.3g} vertex-substeps exceeds this service's budget of {settings.max_cost:.3g} "
+                   "per job (fewer frames or substeps, or split the shot)")
+        raise ApiError(422, f"invalid shot: {problem}", [{"field": "substeps", "problem": problem},
+                                                         {"field": "frame_range", "problem": problem}])
     return shot, scene.vertex_count

@@ -197,6 +197,10 @@ class ServiceSettings:
     max_vertices: int = 2_000_000
     max_frames: int = 100_000
     max_files: int = 64
+    # Cost budget of one job: cloth vertices x simulated frames x substeps ("vertex-substeps";
+    # about 5 microseconds each on one core for plain cloth, more with contact): 1e9 is a 100k
+    # vertex garment over 1,000 frames at 10 substeps.
+    max_cost: int = 1_000_000_000
     # API keys (bearer tokens); empty with local=True: no authentication (loopback only).
     api_keys: tuple[str, ...] = field(default_factory=tuple)
     local: bool = False
@@ -220,6 +224,7 @@ class ServiceSettings:
             max_vertices=_env_int("WEFT_MAX_VERTICES", cls.max_vertices),
             max_frames=_env_int("WEFT_MAX_FRAMES", cls.max_frames),
             max_files=_env_int("WEFT_MAX_FILES", cls.max_files),
+            max_cost=_env_int("WEFT_MAX_COST", cls.max_cost),
             api_keys=keys,
             local=os.environ.get("WEFT_LOCAL", "") == "1",
         )

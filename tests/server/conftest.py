@@ -24,7 +24,7 @@ from workers.worker import Worker
 def settings(redis_db: redis.Redis, redis_server: RedisServer, tmp_path: Path) -> ServiceSettings:
     return ServiceSettings(
         redis_url=redis_server.url, storage=tmp_path / "storage", api_keys=(ALICE, BOB),
-        max_upload_bytes=200_000, max_json_bytes=100_000, max_vertices=500, max_frames=50, max_files=4,
+        max_upload_bytes=200_000, max_json_bytes=100_000, max_vertices=500, max_frames=50, max_files=4, max_cost=200_000,
     )
 
 

@@ -57,6 +57,16 @@ def test_submit_hdf5_asset_stored_externally_in_etc_passwd_is_a_422(alice: Api, 
     assert "root" not in r.text
 
 
+def test_submit_of_hours_of_work_on_a_few_vertices_is_refused_by_the_cost_budget(alice: Api) -> None:
+    shot = small_shot("forever", frames=50)  # the test service's budget: 200,000 vertex-substeps
+    shot["substeps"] = 1000
+    r = alice.post("/v1/jobs", json=shot)
+    assert_error(r, 422, "substeps", "vertex-substeps exceeds this service's budget")
+    assert any(e["field"] == "frame_range" for e in r.json()["errors"])
+    within = small_shot("within", frames=50)  # 36 x 49 x 4: well inside
+    assert alice.post("/v1/jobs", json=within).status_code == 201
+
+
 def test_submit_idempotency_key_returns_the_first_job(alice: Api, bob: Api) -> None:
     key = {"Idempotency-Key": "render-42"}
     first = alice.post("/v1/jobs", json=small_shot(), headers=key)

@@ -109,3 +109,13 @@ def test_plain_assets_still_load(tmp_path: Path) -> None:
         f.create_dataset("group/positions", data=data)
     for name, key in (("a.npy", None), ("a.npz", None), ("a.h5", "group/positions")):
         assert np.array_equal(load(tmp_path, name, key), data)
+
+
+def test_malformed_obj_names_the_field_not_a_missing_module(tmp_path: Path) -> None:
+    from api_schemas import MeshSource
+    from weft.assets import load_mesh
+
+    (tmp_path / "cloth.obj").write_bytes(b"v 0 0 0\nv \xff\xfe 1 0\nf 1 2 3 4 5\n\x00\x00garbage\n")
+    with pytest.raises(ShotError) as caught:
+        load_mesh(tmp_path, MeshSource(path="cloth.obj"), "cloth[0].mesh")
+    assert caught.value.field.startswith("cloth[0].mesh") and "No module named" not in str(caught.value)
