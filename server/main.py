@@ -7,6 +7,7 @@ resource), their dependencies (settings, Redis, auth, the caller's job) in ``ser
 
 from __future__ import annotations
 
+import time
 from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
 from typing import Any
@@ -18,6 +19,7 @@ from fastapi import FastAPI
 from api_schemas import Shot
 from server.errors import install_error_handlers
 from server.routes import events, jobs, ops, results
+from server.uploads import remove_orphaned_uploads
 from weft import jobstore
 from weft.jobstore import ServiceSettings
 
@@ -32,6 +34,13 @@ async def lifespan(app: FastAPI) -> AsyncIterator[None]:
         await app.state.redis.xgroup_create(jobstore.QUEUE, jobstore.GROUP, id="0", mkstream=True)
     except redis.RedisError:
         pass  # exists already, or Redis is not up yet (the workers create it too)
+    try:  # uploads an earlier API process never finished (crashed mid-request)
+        async def has_record(job_id: str) -> bool:
+            return bool(await app.state.redis.exists(jobstore.job_key(job_id)))
+
+        await remove_orphaned_uploads(settings.storage / "jobs", has_record, time.time())
+    except redis.RedisError:
+        pass  # Redis not up: nothing can be told apart from an orphan now; the next start does it
     yield
     await app.state.redis.aclose()
 

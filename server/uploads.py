@@ -8,7 +8,8 @@ written to disk as they arrive; nothing is held in memory but the shot document.
 from __future__ import annotations
 
 import re
-from collections.abc import AsyncIterator
+import shutil
+from collections.abc import AsyncIterator, Awaitable, Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO
@@ -177,3 +178,26 @@ async def receive_multipart(
     if result.shot_bytes is None:
         raise UploadError(400, "shot", "the multipart body has no 'shot' part (the shot as JSON)")
     return result
+
+
+# A job folder without a job record older than this is an upload the API never finished (it
+# crashed or was killed mid-request): removed when an API process starts.
+ORPHAN_AGE_SECONDS = 3600.0
+JOB_FOLDER = re.compile(r"^[0-9a-f]{32}$")
+
+
+async def remove_orphaned_uploads(jobs_dir: Path, has_record: Callable[[str], Awaitable[bool]], now: float) -> list[str]:
+    """Job folders in `jobs_dir` that no job record names and that nothing touched for
+    ORPHAN_AGE_SECONDS (younger ones may be uploads in flight in another API process)."""
+    removed: list[str] = []
+    if not jobs_dir.is_dir():
+        return removed
+    for folder in sorted(jobs_dir.iterdir()):
+        if not folder.is_dir() or not JOB_FOLDER.match(folder.name):
+            continue
+        newest = max([folder.stat().st_mtime] + [p.stat().st_mtime for p in folder.rglob("*")])
+        if now - newest < ORPHAN_AGE_SECONDS or await has_record(folder.name):
+            continue
+        shutil.rmtree(folder, ignore_errors=True)
+        removed.append(folder.name)
+    return removed

@@ -77,3 +77,33 @@ def test_server_refuses_local_mode_on_a_public_host() -> None:
 def test_server_refuses_to_start_without_keys() -> None:
     done = run_server("--host", "127.0.0.1", env={"PATH": "/usr/bin:/bin"})
     assert done.returncode == 1 and "set WEFT_API_KEYS" in done.stderr
+
+
+def test_uploads_an_api_crash_left_behind_are_removed_at_the_next_start(settings, redis_db) -> None:
+    """Issue 15: an API killed mid-upload leaves jobs/{id}/ without a record; the next API start
+    removes it once nothing touched it for an hour, and keeps real jobs and young folders."""
+    import os
+    import time
+
+    from fastapi.testclient import TestClient
+
+    from server.main import create_app
+    from server.uploads import ORPHAN_AGE_SECONDS
+    from weft import jobstore
+
+    jobs_dir = settings.storage / "jobs"
+    old = time.time() - ORPHAN_AGE_SECONDS - 60
+    folders = {}
+    for name, digit in (("orphan", "a"), ("young", "b"), ("recorded", "c")):
+        folder = jobs_dir / (digit * 32)
+        (folder / "assets").mkdir(parents=True)
+        (folder / "assets" / "mesh.obj").write_text("v 0 0 0\n")
+        folders[name] = folder
+    for name in ("orphan", "recorded"):
+        for path in [folders[name], folders[name] / "assets", folders[name] / "assets" / "mesh.obj"]:
+            os.utime(path, (old, old))
+    redis_db.hset(jobstore.job_key("c" * 32), mapping={"id": "c" * 32, "state": "queued"})
+    with TestClient(create_app(settings)):
+        pass
+    assert not folders["orphan"].exists()
+    assert folders["young"].exists() and folders["recorded"].exists()
