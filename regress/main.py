@@ -15,7 +15,7 @@ from scenes.regression import SCENES
 
 
 def run_scenes(names: list[str], where: str, server: str | None, workers: int, threads: int,
-               log: Callable[[str], None]) -> tuple[list[SceneResult], dict[str, Path]]:
+               log: Callable[[str], None]) -> list[SceneResult]:
     """where: 'service' (server given, or a local stack started here) or 'local' (this process)."""
     with tempfile.TemporaryDirectory(prefix="weft-regress-") as tmp:
         work = Path(tmp)
@@ -42,12 +42,12 @@ def run_scenes(names: list[str], where: str, server: str | None, workers: int, t
         for name in names:
             log(f"judging {name}")
             results.append(judge(name, scenes[name], runs[name], threads))
-        return results, {}
+        return results
 
 
 def main(names: list[str], where: str, server: str | None, workers: int, threads: int, out: Path,
          log: Callable[[str], None]) -> tuple[bool, str, dict[str, Path]]:
-    results, _ = run_scenes(names, where, server, workers, threads, log)
+    results = run_scenes(names, where, server, workers, threads, log)
     paths = write(results, out)
     return all(r.passed for r in results), markdown(results), paths
 
