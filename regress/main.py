@@ -59,9 +59,8 @@ def update_references(names: list[str], threads: int, log: Callable[[str], None]
     with tempfile.TemporaryDirectory(prefix="weft-references-") as tmp:
         for name in names:
             log(f"reference of {name}")
-            meta = references.update(name, Path(tmp) / name, threads)
-            scene = resolve(write_shot(name, Path(tmp) / name / "check"))
-            result = judge(name, scene, run_here(scene, threads), threads)
+            meta, scene, default_run = references.update(name, Path(tmp) / name, threads)
+            result = judge(name, scene, default_run, threads)
             m = result.metrics
             lines.append(f"{name}: reference {meta['reference'] if isinstance(meta['reference'], str) else 'converged'}"
                          f", default run error RMS {m['position_error_rms_mm']:.3g} mm, max "

@@ -70,9 +70,9 @@ def load(name: str) -> dict[str, Any]:
     return meta
 
 
-def update(name: str, work: Path, threads: int = 2) -> dict[str, Any]:
+def update(name: str, work: Path, threads: int = 2) -> tuple[dict[str, Any], Any, Run]:
     """Runs the scene as submitted (for its counts) and converged (for its positions) and writes
-    the reference files; returns the metadata written."""
+    the reference files; returns the metadata written, the scene as submitted and its run."""
     from weft import __version__
 
     plain = resolve(write_shot(name, work / "plain"))
@@ -106,4 +106,4 @@ def update(name: str, work: Path, threads: int = 2) -> dict[str, Any]:
         meta["reference"] = {"substeps": converged.shot.substeps, "solver": CONVERGED_SOLVER,
                              "sampled_vertices": int(len(vertices)), "seconds": round(time.perf_counter() - start, 2)}
     (folder / "reference.json").write_text(json.dumps(meta, indent=2) + "\n")
-    return meta
+    return meta, plain, default_run

@@ -64,9 +64,9 @@ def overrides_for(base_substeps: int, change: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
-def measure(scene_name: str, label: str, change: dict[str, Any], work: Path, repeats: int, threads: int) -> Point:
-    base = resolve(write_shot(scene_name, work / "base"))
-    overrides = overrides_for(base.shot.substeps, change)
+def measure(scene_name: str, label: str, change: dict[str, Any], base_substeps: int, work: Path, repeats: int,
+            threads: int) -> Point:
+    overrides = overrides_for(base_substeps, change)
     scene = resolve(write_shot(scene_name, work / label.replace(" ", "_").replace(",", ""), overrides))
     reference = references.load(scene_name)
     seconds, run = [], None
@@ -135,9 +135,10 @@ def run(scenes: list[str], out: Path, repeats: int, threads: int, within_mm: flo
     with tempfile.TemporaryDirectory(prefix="weft-speed-error-") as tmp:
         for name in scenes:
             points = []
+            base_substeps = resolve(write_shot(name, Path(tmp) / name / "base")).shot.substeps
             for label, change in SWEEP:
                 log(f"{name}: {label}")
-                points.append(measure(name, label, change, Path(tmp) / name, repeats, threads))
+                points.append(measure(name, label, change, base_substeps, Path(tmp) / name, repeats, threads))
             mark_pareto(points)
             best = cheapest_within(points, within_mm)
             plot(name, points, within_mm, out / f"speed_error_{name}.png")
