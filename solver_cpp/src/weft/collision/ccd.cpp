@@ -79,14 +79,47 @@ struct LaterFirst {
   }
 };
 
+// F at the 8 corners of a box, corner c = (t bit 4, u bit 2, v bit 1). The points are
+// interpolated once per time and the differences formed once per (t, u), with the operations
+// and their order of the single-corner formula the error bound in ccd_error_bound assumes:
+//   vertex-triangle ((x0 - x1) - u (x2 - x1)) - v (x3 - x1),
+//   edge-edge       (x0 + u (x1 - x0)) - (x2 + v (x3 - x2)).
 template <bool kEdgeEdge>
-inline Vec3 evaluate(const std::array<Vec3, 4>& s, const std::array<Vec3, 4>& d, double t, double u, double v) {
-  const Vec3 x0 = s[0] + t * d[0], x1 = s[1] + t * d[1], x2 = s[2] + t * d[2], x3 = s[3] + t * d[3];
-  if constexpr (kEdgeEdge) {
-    return (x0 + u * (x1 - x0)) - (x2 + v * (x3 - x2));
-  } else {
-    return ((x0 - x1) - u * (x2 - x1)) - v * (x3 - x1);
+inline void corner_values(const std::array<Vec3, 4>& s, const std::array<Vec3, 4>& d, const double (&t)[2],
+                          const double (&u)[2], const double (&v)[2], std::array<Vec3, 8>& f) {
+  for (int i = 0; i < 2; ++i) {
+    const Vec3 x0 = s[0] + t[i] * d[0], x1 = s[1] + t[i] * d[1], x2 = s[2] + t[i] * d[2], x3 = s[3] + t[i] * d[3];
+    if constexpr (kEdgeEdge) {
+      const Vec3 e0 = x1 - x0, e1 = x3 - x2;
+      const Vec3 q[2] = {x2 + v[0] * e1, x2 + v[1] * e1};
+      for (int j = 0; j < 2; ++j) {
+        const Vec3 p = x0 + u[j] * e0;
+        f[4 * i + 2 * j] = p - q[0];
+        f[4 * i + 2 * j + 1] = p - q[1];
+      }
+    } else {
+      const Vec3 a = x0 - x1, b = x2 - x1, c = x3 - x1;
+      const Vec3 vc[2] = {v[0] * c, v[1] * c};
+      for (int j = 0; j < 2; ++j) {
+        const Vec3 p = a - u[j] * b;
+        f[4 * i + 2 * j] = p - vc[0];
+        f[4 * i + 2 * j + 1] = p - vc[1];
+      }
+    }
   }
+}
+
+// Whether some corner of the box is a true contact: F there within `bound` in every coordinate
+// (for vertex-triangle only corners inside the triangle, u + v <= 1; the box bounds are dyadic
+// fractions of at most 40 bits, so the sum is exact).
+template <bool kEdgeEdge>
+inline bool certain_contact_corner(const std::array<Vec3, 8>& f, const Box& box, const Vec3& bound) {
+  if (!(bound.minCoeff() > 0.0)) return false;
+  for (int c = 0; c < 8; ++c) {
+    if (!kEdgeEdge && ((c & 2) ? box.u1 : box.u0) + ((c & 1) ? box.v1 : box.v0) > 1.0) continue;
+    if ((f[c].cwiseAbs() - bound).maxCoeff() <= 0.0) return true;
+  }
+  return false;
 }
 
 constexpr double kMinimumWidth = 0x1p-40;  // boxes are not split below this in any parameter
@@ -123,6 +156,8 @@ CcdResult run_ccd(const std::array<Vec3, 4>& start, const std::array<Vec3, 4>& e
       std::max({options.relative_tolerance * extent, options.absolute_tolerance, 4.0 * err.maxCoeff()});
   const Vec3 widen = err + Vec3::Constant(std::max(options.minimum_separation, 0.0));
   const double t_max = std::clamp(options.t_max, 0.0, 1.0);
+  // |F_k| at or below this (per coordinate) is certainly within the minimum separation.
+  const Vec3 contact_bound = Vec3::Constant(std::max(options.minimum_separation, 0.0)) - err;
 
   std::priority_queue<Box, std::vector<Box>, LaterFirst> queue;
   queue.push({0.0, t_max, 0.0, 1.0, 0.0, 1.0, 0});
@@ -132,9 +167,8 @@ CcdResult run_ccd(const std::array<Vec3, 4>& start, const std::array<Vec3, 4>& e
     queue.pop();
     if (!kEdgeEdge && box.u0 + box.v0 > 1.0) continue;  // entirely outside the triangle
     ++result.boxes;
-    for (int c = 0; c < 8; ++c)
-      f[c] = evaluate<kEdgeEdge>(start, d, (c & 4) ? box.t1 : box.t0, (c & 2) ? box.u1 : box.u0,
-                                 (c & 1) ? box.v1 : box.v0);
+    const double ts[2] = {box.t0, box.t1}, us[2] = {box.u0, box.u1}, vs[2] = {box.v0, box.v1};
+    corner_values<kEdgeEdge>(start, d, ts, us, vs, f);
     Vec3 lo = f[0], hi = f[0];
     for (int c = 1; c < 8; ++c) {
       lo = lo.cwiseMin(f[c]);
@@ -142,6 +176,11 @@ CcdResult run_ccd(const std::array<Vec3, 4>& start, const std::array<Vec3, 4>& e
     }
     if ((lo - widen).maxCoeff() > 0.0 || (hi + widen).minCoeff() < 0.0) continue;  // zero excluded
     const double t_width = box.t1 - box.t0, u_width = box.u1 - box.u0, v_width = box.v1 - box.v0;
+    if (t_width <= options.hit_time_resolution && certain_contact_corner<kEdgeEdge>(f, box, contact_bound)) {
+      result.hit = true;
+      result.toi = box.t0;
+      return result;
+    }
     const bool tiny = t_width <= kMinimumWidth && u_width <= kMinimumWidth && v_width <= kMinimumWidth;
     if ((hi - lo).maxCoeff() <= tolerance || tiny || result.boxes >= options.max_boxes) {
       result.hit = true;

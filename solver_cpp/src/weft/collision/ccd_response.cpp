@@ -67,6 +67,7 @@ int CcdResponse::pass(CollisionStep& step, const ContactProperties& props, bool 
     options.minimum_separation = kCcdSeparationFraction * th;
     options.absolute_tolerance = 0.1 * options.minimum_separation;
     options.max_boxes = 2000;
+    options.hit_time_resolution = kCcdHitTimeResolution;
     if (!boxes_within(s, e, pair.edge_edge, options.minimum_separation)) return CcdResult{};
     const double gap = options.minimum_separation + 2.0 * options.absolute_tolerance;
     if (apart_all_step(s, e, pair.edge_edge, gap) || stays_apart(s, e, pair.edge_edge, gap)) return CcdResult{};
@@ -89,7 +90,11 @@ int CcdResponse::pass(CollisionStep& step, const ContactProperties& props, bool 
     if (!hit[k]) continue;
     const FeaturePair& pair = step.pairs[k];
     double t = toi[k];
-    if (apply && found > 0) {  // earlier impulses of this pass may have changed the pair
+    // Earlier impulses of this pass may have changed the pair: then it is tested again with the
+    // velocities of the moment. A pair none of whose points they moved keeps its answer.
+    const bool moved_in_pass = std::any_of(pair.point.begin(), pair.point.end(),
+                                           [&](int p) { return p >= 0 && step.changed[p]; });
+    if (apply && found > 0 && moved_in_pass) {
       const CcdResult r = run(k);
       if (!r.hit) continue;
       t = r.toi;
@@ -98,22 +103,46 @@ int CcdResponse::pass(CollisionStep& step, const ContactProperties& props, bool 
     if (hits) hits->push_back(k);
     if (!apply) continue;
     const double th = props.pair_thickness(pair);
-    std::array<Vec3, 4> s, x_toi;
+    std::array<Vec3, 4> s, e;
     for (int i = 0; i < 4; ++i) {
       s[i] = step.start_of(pair.point[i], pair.body);
-      x_toi[i] = s[i] + t * (step.end_of(pair.point[i], pair.body) - s[i]);
+      e[i] = step.end_of(pair.point[i], pair.body);
     }
-    std::array<double, 4> w;
-    const double d = pair_weights(x_toi, pair.edge_edge, w);
-    const Vec3 g0 = combine(s, w);
-    Vec3 v_rel = Vec3::Zero();
-    for (int i = 0; i < 4; ++i) v_rel += w[i] * step.velocity_of(pair.point[i], pair.body);
-    const Vec3 side = g0.squaredNorm() > 0.0 ? g0 : Vec3(-v_rel);
-    const Vec3 n = contact_normal(x_toi, pair.edge_edge, combine(x_toi, w), d, th, side);
-    const double vn = n.dot(v_rel);
-    double target = (kTargetSeparationFraction * th - n.dot(g0)) / step.h;
-    if (step.ccd_iteration >= 2) target = std::max(target, 0.0);  // plain inelastic after two passes
-    if (vn < target) apply_impulse(step, props, pair, w, n, target - vn, props.pair_friction(pair));
+    // The impulse linearised at time t of the step; false when the pair already separates
+    // there fast enough.
+    auto impulse_at = [&](double at) {
+      std::array<Vec3, 4> x_toi;
+      for (int i = 0; i < 4; ++i) x_toi[i] = s[i] + at * (e[i] - s[i]);
+      std::array<double, 4> w;
+      const double d = pair_weights(x_toi, pair.edge_edge, w);
+      const Vec3 g0 = combine(s, w);
+      Vec3 v_rel = Vec3::Zero();
+      for (int i = 0; i < 4; ++i) v_rel += w[i] * step.velocity_of(pair.point[i], pair.body);
+      const Vec3 side = g0.squaredNorm() > 0.0 ? g0 : Vec3(-v_rel);
+      const Vec3 n = contact_normal(x_toi, pair.edge_edge, combine(x_toi, w), d, th, side);
+      const double vn = n.dot(v_rel);
+      double target = (kTargetSeparationFraction * th - n.dot(g0)) / step.h;
+      if (step.ccd_iteration >= 2) target = std::max(target, 0.0);  // plain inelastic after two passes
+      if (!(vn < target)) return false;
+      apply_impulse(step, props, pair, w, n, target - vn, props.pair_friction(pair));
+      return true;
+    };
+    if (impulse_at(t)) continue;
+    // Linearised at the reported time (the pair was within the minimum separation already, or
+    // the time is a coarse lower bound) the pair separates, yet it collides: it turns into
+    // contact later in the step. Then the impulse is taken where the features actually meet.
+    CcdOptions crossing;
+    crossing.absolute_tolerance = 0.1 * kCcdSeparationFraction * th;
+    crossing.max_boxes = 2000;
+    const CcdResult r = pair.edge_edge ? edge_edge_ccd(s, e, crossing) : vertex_triangle_ccd(s, e, crossing);
+    // A pair that starts within the minimum separation, separates and never crosses is left
+    // as it is (every test of it reports the start).
+    if (!r.hit || (r.toi > t && impulse_at(r.toi))) continue;
+    // A crossing no impulse clears: its points are marked changed all the same, so the next
+    // pass tests the pair again instead of taking "no change" for "no collision"; a pair that
+    // impulses cannot clear ends in an impact zone.
+    for (int p : pair.point)
+      if (p >= 0) step.changed[p] = 1;
   }
   frame.ccd_hits += found;
   frame.response_seconds += timer.seconds();
