@@ -28,7 +28,10 @@ from weft.jobstore import ServiceSettings
 async def lifespan(app: FastAPI) -> AsyncIterator[None]:
     settings: ServiceSettings = app.state.settings
     app.state.redis = aioredis.Redis.from_url(settings.redis_url, decode_responses=True)
-    app.state.scripts = {"cancel": app.state.redis.register_script(jobstore.CANCEL_LUA)}
+    app.state.scripts = {
+        "cancel": app.state.redis.register_script(jobstore.CANCEL_LUA),
+        "retry": app.state.redis.register_script(jobstore.RETRY_LUA),
+    }
     settings.storage.mkdir(parents=True, exist_ok=True)
     try:
         await app.state.redis.xgroup_create(jobstore.QUEUE, jobstore.GROUP, id="0", mkstream=True)

@@ -44,6 +44,10 @@ class CacheWriter:
     def __init__(self, file: h5py.File, path: Path) -> None:
         self._file = file
         self.path = path
+        # The file this writer owns. A resume (another writer taking the shot over) replaces
+        # the path by a fresh file, so a writer whose file is no longer at the path has been
+        # fenced off and must not touch what is there now (``close``).
+        self._identity = _file_identity(os.stat(path))
         self._positions = file["frames/positions"]
         self._velocities = file["frames/velocities"]
         self._frame_numbers = file["frames/frame"]
@@ -194,9 +198,23 @@ class CacheWriter:
         if not self._file.id.valid:
             return
         self._file.close()
-        with h5py.File(self.path, "r+", libver="latest") as f:
-            f.attrs["status"] = status
-            f.attrs["error"] = error
+        # Attributes cannot be written in SWMR mode: the status goes in through a new handle,
+        # opened on a descriptor checked to be this writer's own file. A stale writer (a worker
+        # that froze, was replaced and woke up) finds another file at the path and leaves it.
+        try:
+            fd = os.open(self.path, os.O_RDWR)
+        except FileNotFoundError:
+            return
+        with os.fdopen(fd, "r+b") as handle:
+            if _file_identity(os.fstat(handle.fileno())) != self._identity:
+                return
+            with h5py.File(handle, "r+", libver="latest") as f:
+                f.attrs["status"] = status
+                f.attrs["error"] = error
+
+
+def _file_identity(st: os.stat_result) -> tuple[int, int]:
+    return st.st_dev, st.st_ino
 
 
 def _rewrite_completed(path: Path, status: str, error: str) -> None:

@@ -70,11 +70,15 @@ def frame_event_id(index: int) -> str:
 # KEYS[1] job hash, KEYS[2] events stream. Set keys are built inside the scripts (single
 # Redis instance; weft does not use Redis Cluster).
 
-# ARGV: worker, now. Returns the job's state after the call ('running' if the worker may run it).
+# ARGV: worker, now, job id, how the entry was taken ('claimed' from a dead worker, or 'new').
+# Returns the job's state after the call ('running' if the worker may run it). Only a claimed
+# entry may take over a running job; a new entry of a running job is a duplicate (a retry
+# queued while the job's earlier entry was still unread) and returns 'duplicate'.
 START_LUA = """
 local state = redis.call('HGET', KEYS[1], 'state')
 if not state then return 'missing' end
 if state ~= 'queued' and state ~= 'running' then return state end
+if state == 'running' and ARGV[4] ~= 'claimed' then return 'duplicate' end
 redis.call('SMOVE', 'weft:state:' .. state, 'weft:state:running', ARGV[3])
 local fields = {'state', 'running', 'worker', ARGV[1], 'heartbeat', ARGV[2]}
 if redis.call('HEXISTS', KEYS[1], 'started') == 0 then
@@ -111,9 +115,12 @@ redis.call('HINCRBY', 'weft:stats', 'jobs_' .. ARGV[1], 1)
 return 1
 """
 
-# ARGV: event id, payload JSON, frames_done, build, solve, collision, gia, total, simulated (0/1).
-# Returns 1 if the frame was published now, 0 if it had been published before.
+# ARGV: event id, payload JSON, frames_done, build, solve, collision, gia, total, simulated (0/1),
+# worker. Returns 1 if the frame was published now, 0 if it had been published before, -1 if
+# the job is no longer this worker's (fenced off: a worker presumed dead and replaced publishes
+# nothing).
 FRAME_LUA = """
+if redis.call('HGET', KEYS[1], 'worker') ~= ARGV[10] then return -1 end
 local ok = redis.pcall('XADD', KEYS[2], ARGV[1], 'type', 'frame', 'data', ARGV[2])
 if type(ok) == 'table' and ok.err then return 0 end
 redis.call('HSET', KEYS[1], 'frames_done', ARGV[3])
@@ -150,6 +157,31 @@ return state
 """
 
 
+# KEYS[1] job hash, KEYS[2] events stream, KEYS[3] queue stream. ARGV: now, job id, payload JSON.
+# A failed or cancelled job goes back to the queue to continue from its last finished frame:
+# its final event is removed (the stream's last id set back to its newest remaining entry, so
+# the frames still to come keep their ids {index + 1}-0), a 'retried' event follows the frames
+# published so far, and the attempt counters, cancel flag and error start afresh. Returns
+# 'queued', or the state the job had if it was not failed or cancelled ('missing' if none).
+RETRY_LUA = """
+local state = redis.call('HGET', KEYS[1], 'state')
+if not state then return 'missing' end
+if state ~= 'failed' and state ~= 'cancelled' then return state end
+local frames_done = tonumber(redis.call('HGET', KEYS[1], 'frames_done') or '0')
+local final_id = (tonumber(redis.call('HGET', KEYS[1], 'frames_total')) + 1) .. '-0'
+redis.call('XDEL', KEYS[2], final_id)
+local top = redis.call('XREVRANGE', KEYS[2], '+', '-', 'COUNT', 1)
+if #top > 0 then redis.call('XSETID', KEYS[2], top[1][1]) end
+redis.call('XADD', KEYS[2], frames_done .. '-*', 'type', 'retried', 'data', ARGV[3])
+redis.call('SMOVE', 'weft:state:' .. state, 'weft:state:queued', ARGV[2])
+redis.call('HDEL', KEYS[1], 'finished', 'error_reason', 'error_frame', 'cancel_requested', 'worker')
+redis.call('HSET', KEYS[1], 'state', 'queued', 'attempts', 0, 'interruptions', 0, 'retried', ARGV[1])
+redis.call('HINCRBY', KEYS[1], 'retries', 1)
+redis.call('XADD', KEYS[3], '*', 'job', ARGV[2])
+return 'queued'
+"""
+
+
 def now() -> float:
     return time.time()
 
@@ -165,11 +197,20 @@ def queue_new_job(pipe: Any, record: dict[str, Any]) -> None:
 
 
 def requeue(pipe: Any, job_id: str, entry_id: str) -> None:
-    """A stopping worker hands its running job back: queued again, new stream entry, old one acked."""
+    """A stopping worker hands its running job back: queued again, new stream entry, old one acked.
+    The interruption is counted apart from the attempts: a graceful stop (a rolling restart) is
+    not a failure and never makes a job give up (see ``failed_attempts``)."""
     pipe.hset(job_key(job_id), mapping={"state": "queued", "worker": ""})
+    pipe.hincrby(job_key(job_id), "interruptions", 1)
     pipe.smove(state_key("running"), state_key("queued"), job_id)
     pipe.xadd(QUEUE, {"job": job_id})
     pipe.xack(QUEUE, GROUP, entry_id)
+
+
+def failed_attempts(job: dict[str, str]) -> int:
+    """Runs of a job that ended without handing it back: its worker died or froze. Graceful
+    interruptions (``requeue``) do not count."""
+    return int(job.get("attempts", 0)) - int(job.get("interruptions", 0))
 
 
 # -- settings (WEFT_* environment variables) ------------------------------------------------

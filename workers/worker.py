@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import logging
+import math
 import os
 import signal
 import socket
@@ -85,18 +86,19 @@ class Worker:
             if "BUSYGROUP" not in str(exc):
                 raise
 
-    def _next_entry(self) -> tuple[str, str] | None:
-        """A stale entry of a dead worker first, else a new one (blocking up to one second)."""
+    def _next_entry(self) -> tuple[str, str, bool] | None:
+        """A stale entry of a dead worker first, else a new one (blocking up to one second):
+        (entry id, job id, whether it was claimed from another worker)."""
         claim_ms = int(self.settings.claim_after_seconds * 1000)
         _, claimed, _ = self.redis.xautoclaim(jobstore.QUEUE, jobstore.GROUP, self.name, claim_ms, "0-0", count=1)
         for entry_id, fields in claimed:
             if fields:  # an entry trimmed from the stream comes back without fields
-                return entry_id, fields["job"]
+                return entry_id, fields["job"], True
             self.redis.xack(jobstore.QUEUE, jobstore.GROUP, entry_id)
         read = self.redis.xreadgroup(jobstore.GROUP, self.name, {jobstore.QUEUE: ">"}, count=1, block=1000)
         for _, entries in read or []:
             for entry_id, fields in entries:
-                return entry_id, fields["job"]
+                return entry_id, fields["job"], False
         return None
 
     # -- heartbeat --------------------------------------------------------------------------
@@ -131,9 +133,10 @@ class Worker:
             pass
 
     # -- one job ----------------------------------------------------------------------------
-    def _process(self, entry_id: str, job_id: str) -> None:
+    def _process(self, entry_id: str, job_id: str, claimed: bool = False) -> None:
         key = jobstore.job_key(job_id)
-        state = self.start_script(keys=[key, jobstore.events_key(job_id)], args=[self.name, jobstore.now(), job_id])
+        state = self.start_script(keys=[key, jobstore.events_key(job_id)],
+                                  args=[self.name, jobstore.now(), job_id, "claimed" if claimed else "new"])
         if state != "running":
             log.info("job %s is %s; dropping its queue entry", job_id, state)
             self.redis.xack(jobstore.QUEUE, jobstore.GROUP, entry_id)
@@ -143,7 +146,7 @@ class Worker:
         try:
             self._beat()
             job = self.redis.hgetall(key)
-            if int(job.get("attempts", 1)) > self.settings.max_attempts:
+            if jobstore.failed_attempts(job) > self.settings.max_attempts:
                 reason = f"gave up after {self.settings.max_attempts} attempts (workers died)"
                 self._finish(entry_id, job_id, "failed", error_reason=reason)
             elif job.get("cancel_requested") == "1":  # cancelled while its previous worker was dying
@@ -211,14 +214,20 @@ class Worker:
         self._finish(entry_id, job_id, state)
 
     def _publish(self, job_id: str, index: int, frames_total: int, t: FrameTelemetry) -> None:
-        payload = json.dumps({"index": index, "frames_total": frames_total, "published_at": jobstore.now(), **t.model_dump()})
-        self.frame_script(
+        # Strict JSON (browsers' EventSource and most parsers reject NaN and Infinity): a
+        # non-finite value (a diverged residual) is sent as null.
+        values = {k: (v if not isinstance(v, float) or math.isfinite(v) else None) for k, v in t.model_dump().items()}
+        payload = json.dumps({"index": index, "frames_total": frames_total, "published_at": jobstore.now(), **values},
+                             allow_nan=False)
+        published = self.frame_script(
             keys=[jobstore.job_key(job_id), jobstore.events_key(job_id)],
             args=[
                 jobstore.frame_event_id(index), payload, index + 1, t.build_seconds, t.solve_seconds,
-                t.collision_seconds, t.gia_seconds, t.total_seconds, 1 if t.substeps > 0 else 0,
+                t.collision_seconds, t.gia_seconds, t.total_seconds, 1 if t.substeps > 0 else 0, self.name,
             ],
         )
+        if published == -1:
+            raise Superseded
 
     def _backfill(self, job_id: str, cache: Any, published: int, frames_total: int) -> None:
         """Publish frames a dead worker wrote to the cache but did not get to announce."""

@@ -1,4 +1,4 @@
-"""Jobs: submit, list, read one, cancel."""
+"""Jobs: submit, list, read one, cancel, retry."""
 
 from __future__ import annotations
 
@@ -29,6 +29,10 @@ router = APIRouter()
 
 def cancel_script(request: Request) -> AsyncScript:
     return request.app.state.scripts["cancel"]  # type: ignore[no-any-return]
+
+
+def retry_script(request: Request) -> AsyncScript:
+    return request.app.state.scripts["retry"]  # type: ignore[no-any-return]
 
 
 def job_url(request: Request, job_id: str) -> str:
@@ -198,4 +202,28 @@ async def cancel_job(
     )
     if result in ("succeeded", "failed"):
         raise ApiError(409, f"job {job_id} already {result}; nothing to cancel")
+    return to_job(request, await load_job(r, owner, job_id))
+
+
+@router.post(
+    "/v1/jobs/{job_id}/retry", response_model=Job, responses=ERRORS,
+    summary="Queue a failed or cancelled job again; it continues from its last finished frame",
+)
+async def retry_job(
+    request: Request, job_id: JobId, r: Store, owner: Owner, retry: Annotated[AsyncScript, Depends(retry_script)]
+) -> Job:
+    """The job's cache keeps every finished frame and the exact solver state of the last one, so
+    the retried run resumes there (bitwise as if never stopped). Its event stream keeps the
+    frames published so far, then a 'retried' event, the frames still to come and one final
+    'end' event. A solver failure is deterministic: retrying one fails again at the same frame
+    unless the cause was outside the shot (a lost worker, a full disk)."""
+    h = await load_job(r, owner, job_id)
+    payload = json.dumps({"frames_done": int(h.get("frames_done", 0)), "previous_state": h.get("state"),
+                          "previous_error": h.get("error_reason") or None})
+    result = await retry(
+        keys=[jobstore.job_key(job_id), jobstore.events_key(job_id), jobstore.QUEUE],
+        args=[jobstore.now(), job_id, payload],
+    )
+    if result != "queued":
+        raise ApiError(409, f"job {job_id} is {result}; only failed or cancelled jobs can be retried")
     return to_job(request, await load_job(r, owner, job_id))

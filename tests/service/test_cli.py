@@ -62,6 +62,12 @@ def test_submit_wait_status_fetch_cancel(stack: Stack, tmp_path: Path) -> None:
     assert cancelled.returncode == 0 and running in cancelled.stdout
     wait_for(lambda: json.loads(weft("status", running, "--json", env=env).stdout)["state"] == "cancelled",
              what="the job to be cancelled")
+    retried = weft("retry", running, env=env)
+    assert retried.returncode == 0 and "continuing after frame" in retried.stdout, retried.stderr
+    assert json.loads(weft("status", running, "--json", env=env).stdout)["state"] in ("queued", "running")
+    assert weft("cancel", running, env=env).returncode == 0  # not left running for the other tests
+    refused_retry = weft("retry", job_id, env=env)
+    assert refused_retry.returncode != 0 and "only failed or cancelled" in refused_retry.stderr
 
     bad = weft("status", "f" * 32, env=env)
     assert bad.returncode != 0 and "HTTP 404" in bad.stderr

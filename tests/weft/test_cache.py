@@ -185,3 +185,29 @@ def test_a_writer_killed_outright_is_recovered_by_weft_info(tmp_path) -> None:
     assert status == "interrupted" and rows == summary["frames_written"]
     again = weft("info", str(cache), "--recover")
     assert again.returncode == 2 and "nothing to recover" in again.stderr
+
+
+def test_a_stale_writer_cannot_rewrite_a_taken_over_cache(tmp_path) -> None:
+    """Issue 15: a worker that froze, was replaced, and woke after its successor finished the
+    job rewrote the finished cache's status to failed ("Superseded"). A resume replaces the file,
+    and a writer whose file is no longer at the path leaves what is there alone."""
+    from weft.cache import CacheWriter
+    from weft.runner import ShotRunner
+    from weft.shot import parse_shot
+    from weft.solver_setup import resolve_scene
+
+    shot_path = write_shot(tmp_path, frames=6)
+    scene = resolve_scene(parse_shot(json.loads(shot_path.read_text())), tmp_path)
+    cache = tmp_path / "c.h5"
+    ShotRunner(scene, cache, frames=3).run()
+    stale, _ = CacheWriter.resume(cache, scene.shot_hash)  # the worker that will freeze
+    summary = ShotRunner(scene, cache, resume=True).run()  # its successor takes over and finishes
+    assert summary.status == "complete" and describe_cache(cache)["status"] == "complete"
+    stale.close("failed", "Superseded")  # the frozen worker wakes up and gives up
+    info = describe_cache(cache)
+    assert (info["status"], info["frames_written"]) == ("complete", 6)
+    # Its own file, still at the path, does get the status.
+    ShotRunner(scene, tmp_path / "own.h5", frames=2).run()
+    own, _ = CacheWriter.resume(tmp_path / "own.h5", scene.shot_hash)
+    own.close("cancelled")
+    assert describe_cache(tmp_path / "own.h5")["status"] == "cancelled"

@@ -6,6 +6,7 @@ import json
 from collections.abc import Callable
 
 import h5py
+import pytest
 import redis
 
 from weft import jobstore
@@ -104,3 +105,68 @@ def test_a_stopping_worker_hands_the_job_back(worker: Worker, queue_job: Callabl
     assert job["resumed_from"] == "1", "continued from the cache, after frame 1"
     assert [d["frame"] for _, t, d in events(redis_db, job_id) if t == "frame"] == [1, 2, 3, 4, 5, 6]
     successor.redis.close()
+
+
+def test_rolling_restarts_never_fail_a_healthy_job(worker: Worker, queue_job: Callable[..., str],
+                                                   redis_db: redis.Redis, settings: ServiceSettings) -> None:
+    """Issue 15: five graceful restarts (a rolling deploy) made a healthy job give up after
+    max_attempts "workers died". Graceful hand-backs are interruptions, not failed attempts."""
+    job_id = queue_job(frames=8)
+    restarts = settings.max_attempts + 3
+    for k in range(restarts):
+        stopping = Worker(settings, name=f"w-rolling-{k}")
+        stopping.stopping.set()  # SIGTERM: hands the job back after its first frame
+        assert stopping.process_next() == job_id
+        stopping.redis.close()
+        job = redis_db.hgetall(jobstore.job_key(job_id))
+        assert job["state"] == "queued", job
+    worker.process_next()
+    job = redis_db.hgetall(jobstore.job_key(job_id))
+    assert job["state"] == "succeeded", job.get("error_reason")
+    assert (job["attempts"], job["interruptions"]) == (str(restarts + 1), str(restarts))
+    assert [d["frame"] for _, t, d in events(redis_db, job_id) if t == "frame"] == list(range(1, 9))
+
+
+def test_a_replaced_worker_publishes_no_frame(worker: Worker, queue_job: Callable[..., str],
+                                              redis_db: redis.Redis) -> None:
+    """A worker presumed dead and replaced (the job's worker is another one now) is fenced off:
+    its frame events are refused and it stops (Superseded) instead of publishing."""
+    from api_schemas import FrameTelemetry
+    from workers.worker import Superseded
+
+    job_id = queue_job(frames=4)
+    redis_db.hset(jobstore.job_key(job_id), mapping={"state": "running", "worker": "w-successor"})
+    telemetry = FrameTelemetry(**{**{name: 0 for name in FrameTelemetry.model_fields}, "frame": 2, "substeps": 1})
+    with pytest.raises(Superseded):
+        worker._publish(job_id, 1, 4, telemetry)
+    assert events(redis_db, job_id) == [] and redis_db.hget(jobstore.job_key(job_id), "frames_done") == "0"
+    redis_db.hset(jobstore.job_key(job_id), "worker", worker.name)
+    worker._publish(job_id, 1, 4, telemetry)
+    assert [t for _, t, _ in events(redis_db, job_id)] == ["frame"]
+
+
+def test_frame_events_are_strict_json(worker: Worker, queue_job: Callable[..., str], redis_db: redis.Redis) -> None:
+    """Issue 15: a non-finite telemetry value (a diverged residual) went out as `Infinity`,
+    which is not JSON: browsers' EventSource parsers reject the event."""
+    from api_schemas import FrameTelemetry
+
+    job_id = queue_job(frames=4)
+    redis_db.hset(jobstore.job_key(job_id), mapping={"state": "running", "worker": worker.name})
+    values = {**{name: 0 for name in FrameTelemetry.model_fields}, "frame": 2, "substeps": 1}
+    worker._publish(job_id, 1, 4, FrameTelemetry(**{**values, "final_residual": float("inf")}))
+    (_, data), = [(f["type"], f["data"]) for _, f in redis_db.xrange(jobstore.events_key(job_id))]
+    parsed = json.loads(data, parse_constant=lambda c: pytest.fail(f"non-JSON constant {c}"))
+    assert parsed["final_residual"] is None and parsed["frame"] == 2
+
+
+def test_a_second_entry_of_a_running_job_is_dropped(worker: Worker, queue_job: Callable[..., str],
+                                                    redis_db: redis.Redis) -> None:
+    """A retry queued while the job's earlier entry was still unread leaves two entries: the
+    one read second finds the job running and must not start a second run of it (only an entry
+    claimed from a dead worker may take a running job over)."""
+    job_id = queue_job(frames=4)
+    redis_db.hset(jobstore.job_key(job_id), mapping={"state": "running", "worker": "w-other", "attempts": 1})
+    assert worker.process_next() == job_id
+    job = redis_db.hgetall(jobstore.job_key(job_id))
+    assert (job["state"], job["worker"], job["attempts"]) == ("running", "w-other", "1")
+    assert pending(redis_db) == 0, "the duplicate entry is acknowledged"

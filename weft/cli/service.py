@@ -251,6 +251,14 @@ def cancel(job_id: Annotated[str, typer.Argument(help="Job id")], server: Server
     out.print(f"job {job_id}: {'cancelling' if job['state'] == 'running' else job['state']}")
 
 
+@app.command()
+def retry(job_id: Annotated[str, typer.Argument(help="Job id")], server: ServerOption = None) -> None:
+    """Queue a failed or cancelled job again; it continues from its last finished frame."""
+    with api(server) as client:
+        job = checked(client.post(f"/v1/jobs/{job_id}/retry"))
+    out.print(f"job {job_id}: {job['state']}, continuing after frame {job['frames_done']} of {job['frames_total']}")
+
+
 def _start_stack(storage: Path | None, workers: int, port: int | None):  # type: ignore[no-untyped-def]
     from server.stack import Stack, free_port
 
