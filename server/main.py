@@ -19,6 +19,7 @@ from fastapi import FastAPI
 from api_schemas import Shot
 from server.errors import install_error_handlers
 from server.routes import events, jobs, ops, results
+from server.streams import StreamLimits
 from server.uploads import remove_orphaned_uploads
 from weft import jobstore
 from weft.jobstore import ServiceSettings
@@ -27,7 +28,14 @@ from weft.jobstore import ServiceSettings
 @asynccontextmanager
 async def lifespan(app: FastAPI) -> AsyncIterator[None]:
     settings: ServiceSettings = app.state.settings
-    app.state.redis = aioredis.Redis.from_url(settings.redis_url, decode_responses=True)
+    # Two pools: requests wait (up to 10 s) for one of max_redis_connections rather than fail;
+    # event streams, which hold a connection while they wait for events, have their own, as
+    # large as the number of streams StreamLimits lets open.
+    app.state.redis = aioredis.Redis(connection_pool=aioredis.BlockingConnectionPool.from_url(
+        settings.redis_url, decode_responses=True, max_connections=settings.max_redis_connections, timeout=10))
+    app.state.stream_redis = aioredis.Redis(connection_pool=aioredis.BlockingConnectionPool.from_url(
+        settings.redis_url, decode_responses=True, max_connections=settings.max_streams, timeout=10))
+    app.state.stream_limits = StreamLimits(settings.max_streams_per_key, settings.max_streams)
     app.state.scripts = {
         "cancel": app.state.redis.register_script(jobstore.CANCEL_LUA),
         "retry": app.state.redis.register_script(jobstore.RETRY_LUA),
@@ -46,6 +54,7 @@ async def lifespan(app: FastAPI) -> AsyncIterator[None]:
         pass  # Redis not up: nothing can be told apart from an orphan now; the next start does it
     yield
     await app.state.redis.aclose()
+    await app.state.stream_redis.aclose()
 
 
 def create_app(settings: ServiceSettings | None = None) -> FastAPI:

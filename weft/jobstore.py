@@ -14,6 +14,8 @@ Keys (all prefixed ``weft:``):
   itself and every frame appears exactly once, in order. The final event uses
   ``{frames_total + 1}-0``.
 - ``weft:owner:{owner}:jobs``: sorted set of an API key's job ids, scored by creation time.
+- ``weft:owner:{owner}:active``: set of the key's queued and running job ids (its share of the
+  farm, bounded by ``max_active_jobs``).
 - ``weft:state:{state}``: set of the job ids in each state (for metrics).
 - ``weft:idem:{owner}:{key}``: idempotency key -> job id (SET NX, with a TTL).
 - ``weft:workers``: hash worker name -> JSON heartbeat record.
@@ -48,6 +50,10 @@ def events_key(job_id: str) -> str:
 
 def owner_key(owner: str) -> str:
     return f"{PREFIX}:owner:{owner}:jobs"
+
+
+def active_key(owner: str) -> str:
+    return f"{PREFIX}:owner:{owner}:active"
 
 
 def state_key(state: str) -> str:
@@ -108,6 +114,7 @@ if not state then return 0 end
 if state == 'succeeded' or state == 'failed' or state == 'cancelled' then return 0 end
 if redis.call('HGET', KEYS[1], 'worker') ~= ARGV[6] then return -1 end
 redis.call('SMOVE', 'weft:state:' .. state, 'weft:state:' .. ARGV[1], ARGV[5])
+redis.call('SREM', 'weft:owner:' .. redis.call('HGET', KEYS[1], 'owner') .. ':active', ARGV[5])
 redis.call('HSET', KEYS[1], 'state', ARGV[1], 'finished', ARGV[2])
 for i = 7, #ARGV, 2 do redis.call('HSET', KEYS[1], ARGV[i], ARGV[i + 1]) end
 redis.pcall('XADD', KEYS[2], ARGV[4], 'type', 'end', 'data', ARGV[3])
@@ -144,6 +151,7 @@ local state = redis.call('HGET', KEYS[1], 'state')
 if not state then return 'missing' end
 if state == 'queued' then
   redis.call('SMOVE', 'weft:state:queued', 'weft:state:cancelled', ARGV[4])
+  redis.call('SREM', 'weft:owner:' .. redis.call('HGET', KEYS[1], 'owner') .. ':active', ARGV[4])
   redis.call('HSET', KEYS[1], 'state', 'cancelled', 'finished', ARGV[1], 'cancel_requested', '1')
   redis.pcall('XADD', KEYS[2], ARGV[3], 'type', 'end', 'data', ARGV[2])
   redis.call('HINCRBY', 'weft:stats', 'jobs_cancelled', 1)
@@ -171,9 +179,10 @@ local frames_done = tonumber(redis.call('HGET', KEYS[1], 'frames_done') or '0')
 local final_id = (tonumber(redis.call('HGET', KEYS[1], 'frames_total')) + 1) .. '-0'
 redis.call('XDEL', KEYS[2], final_id)
 local top = redis.call('XREVRANGE', KEYS[2], '+', '-', 'COUNT', 1)
-if #top > 0 then redis.call('XSETID', KEYS[2], top[1][1]) end
+redis.call('XSETID', KEYS[2], #top > 0 and top[1][1] or '0-0')
 redis.call('XADD', KEYS[2], frames_done .. '-*', 'type', 'retried', 'data', ARGV[3])
 redis.call('SMOVE', 'weft:state:' .. state, 'weft:state:queued', ARGV[2])
+redis.call('SADD', 'weft:owner:' .. redis.call('HGET', KEYS[1], 'owner') .. ':active', ARGV[2])
 redis.call('HDEL', KEYS[1], 'finished', 'error_reason', 'error_frame', 'cancel_requested', 'worker')
 redis.call('HSET', KEYS[1], 'state', 'queued', 'attempts', 0, 'interruptions', 0, 'retried', ARGV[1])
 redis.call('HINCRBY', KEYS[1], 'retries', 1)
@@ -192,6 +201,7 @@ def queue_new_job(pipe: Any, record: dict[str, Any]) -> None:
     job_id = record["id"]
     pipe.hset(job_key(job_id), mapping=record)
     pipe.zadd(owner_key(record["owner"]), {job_id: record["created"]})
+    pipe.sadd(active_key(record["owner"]), job_id)
     pipe.sadd(state_key("queued"), job_id)
     pipe.xadd(QUEUE, {"job": job_id})
 
@@ -242,6 +252,14 @@ class ServiceSettings:
     # about 5 microseconds each on one core for plain cloth, more with contact): 1e9 is a 100k
     # vertex garment over 1,000 frames at 10 substeps.
     max_cost: int = 1_000_000_000
+    # A key's share: its queued and running jobs, and its open event streams per API process
+    # (each holds a Redis connection of the streams' own pool, max_streams in all).
+    max_active_jobs: int = 200
+    max_streams_per_key: int = 16
+    max_streams: int = 256
+    # Redis connections of an API process for everything but event streams (requests wait for
+    # a free one rather than fail).
+    max_redis_connections: int = 64
     # API keys (bearer tokens); empty with local=True: no authentication (loopback only).
     api_keys: tuple[str, ...] = field(default_factory=tuple)
     local: bool = False
@@ -266,6 +284,10 @@ class ServiceSettings:
             max_frames=_env_int("WEFT_MAX_FRAMES", cls.max_frames),
             max_files=_env_int("WEFT_MAX_FILES", cls.max_files),
             max_cost=_env_int("WEFT_MAX_COST", cls.max_cost),
+            max_active_jobs=_env_int("WEFT_MAX_ACTIVE_JOBS", cls.max_active_jobs),
+            max_streams_per_key=_env_int("WEFT_MAX_STREAMS_PER_KEY", cls.max_streams_per_key),
+            max_streams=_env_int("WEFT_MAX_STREAMS", cls.max_streams),
+            max_redis_connections=_env_int("WEFT_MAX_REDIS_CONNECTIONS", cls.max_redis_connections),
             api_keys=keys,
             local=os.environ.get("WEFT_LOCAL", "") == "1",
         )

@@ -10,9 +10,11 @@ from typing import Annotated
 import redis
 from fastapi import APIRouter, Header, Request
 from fastapi.responses import StreamingResponse
+from starlette.background import BackgroundTask
 
 from server.deps import JobId, Owner, Store, load_job
 from server.errors import ERRORS, ApiError
+from server.streams import StreamLimits
 from weft import jobstore
 
 router = APIRouter()
@@ -36,6 +38,11 @@ async def job_events(
     start = last_event_id or "0-0"
     if not EVENT_ID.match(start):
         raise ApiError(400, "Last-Event-ID must be an event id like '12-0'")
+    limits: StreamLimits = request.app.state.stream_limits
+    release, why_not = limits.acquire(owner)
+    if release is None:
+        raise ApiError(429, why_not)
+    r = request.app.state.stream_redis  # the streams' own pool: they cannot starve other requests
 
     async def stream() -> AsyncIterator[str]:
         last = start
@@ -57,4 +64,7 @@ async def job_events(
                     if fields["type"] == "end":
                         return
 
-    return StreamingResponse(stream(), media_type="text/event-stream", headers={"Cache-Control": "no-cache"})
+    # The slot is given back once the response ends, whether the events ran out, the client
+    # left, or it left before the first one (then the generator never ran its own cleanup).
+    return StreamingResponse(stream(), media_type="text/event-stream", headers={"Cache-Control": "no-cache"},
+                             background=BackgroundTask(release))

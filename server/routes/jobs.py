@@ -20,6 +20,7 @@ from server.uploads import UploadError, read_limited, receive_multipart
 from server.validation import validate_shot
 from weft import jobstore
 from weft.assets import shot_hash
+from weft.jobstore import ServiceSettings
 
 IDEMPOTENCY = re.compile(r"^[A-Za-z0-9_.:-]{1,128}$")
 IDEMPOTENCY_TTL = 24 * 3600
@@ -68,6 +69,18 @@ def duplicate_response(request: Request, job_id: str, state: str | None) -> JSON
     return JSONResponse(out.model_dump(), status_code=200, headers={"Location": url})
 
 
+async def check_active_jobs(r: Any, owner: str, settings: ServiceSettings, idempotency_key: str | None) -> None:
+    """A key's share of the farm: 429 once it has max_active_jobs queued or running (checked
+    before anything is read; a resubmission under a known Idempotency-Key is not a new job).
+    Two submissions racing at the limit can both pass: a soft limit, by one job per API process."""
+    if idempotency_key and await r.exists(jobstore.idempotency_key(owner, idempotency_key)):
+        return
+    active = await r.scard(jobstore.active_key(owner))
+    if active >= settings.max_active_jobs:
+        raise ApiError(429, f"this API key has {active} jobs queued or running, the limit is "
+                            f"{settings.max_active_jobs}: wait for some to finish or cancel some")
+
+
 SUBMIT_BODY = {
     "requestBody": {
         "required": True,
@@ -107,6 +120,7 @@ async def submit_job(
     declared = request.headers.get("content-length")
     if declared and declared.isdigit() and int(declared) > settings.max_upload_bytes:
         raise ApiError(413, f"upload of {declared} bytes exceeds the limit of {settings.max_upload_bytes} bytes")
+    await check_active_jobs(r, owner, settings, idempotency_key)
     job_id = uuid.uuid4().hex
     job_dir = settings.job_dir(job_id)
     assets = settings.assets_dir(job_dir)
@@ -210,7 +224,8 @@ async def cancel_job(
     summary="Queue a failed or cancelled job again; it continues from its last finished frame",
 )
 async def retry_job(
-    request: Request, job_id: JobId, r: Store, owner: Owner, retry: Annotated[AsyncScript, Depends(retry_script)]
+    request: Request, job_id: JobId, r: Store, owner: Owner, settings: Settings,
+    retry: Annotated[AsyncScript, Depends(retry_script)],
 ) -> Job:
     """The job's cache keeps every finished frame and the exact solver state of the last one, so
     the retried run resumes there (bitwise as if never stopped). Its event stream keeps the
@@ -218,6 +233,8 @@ async def retry_job(
     'end' event. A solver failure is deterministic: retrying one fails again at the same frame
     unless the cause was outside the shot (a lost worker, a full disk)."""
     h = await load_job(r, owner, job_id)
+    if h.get("state") in ("failed", "cancelled"):  # a retried job counts towards the key's share
+        await check_active_jobs(r, owner, settings, None)
     payload = json.dumps({"frames_done": int(h.get("frames_done", 0)), "previous_state": h.get("state"),
                           "previous_error": h.get("error_reason") or None})
     result = await retry(

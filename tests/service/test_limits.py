@@ -1,0 +1,86 @@
+"""A key's share of the service (issue 15): one client holding ~100 event streams exhausted the
+API's Redis connections and other keys got 503; nothing bounded a key's queued jobs. Real
+Redis, real HTTP through uvicorn, no workers (jobs stay queued, streams stay open)."""
+
+from __future__ import annotations
+
+import contextlib
+from collections.abc import Iterator
+from pathlib import Path
+
+import httpx
+import pytest
+
+from server.stack import Stack
+
+from .conftest import ALICE, BOB, FAST_CLAIM, client, small_shot, wait_for
+
+LIMITS = {"WEFT_MAX_STREAMS_PER_KEY": "3", "WEFT_MAX_STREAMS": "5", "WEFT_MAX_ACTIVE_JOBS": "2"}
+
+
+@pytest.fixture(scope="module")
+def limited(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Stack]:
+    with Stack(tmp_path_factory.mktemp("limited"), workers=0, api_keys=[ALICE, BOB], env={**FAST_CLAIM, **LIMITS}) as s:
+        yield s
+
+
+@contextlib.contextmanager
+def open_stream(c: httpx.Client, job_id: str) -> Iterator[httpx.Response]:
+    with c.stream("GET", f"/v1/jobs/{job_id}/events", timeout=httpx.Timeout(30, read=60)) as response:
+        # The opening 'retry:' line: the server holds the slot. The iterator is kept: dropping
+        # it would close the connection.
+        chunks = response.iter_raw() if response.status_code == 200 else iter(())
+        next(chunks, None)
+        yield response
+
+
+def test_one_key_cannot_take_every_event_stream(limited: Stack) -> None:
+    with client(limited, ALICE) as alice, client(limited, BOB) as bob, contextlib.ExitStack() as held:
+        alice_job = alice.post("/v1/jobs", json=small_shot("streams-a")).json()["id"]
+        bob_job = bob.post("/v1/jobs", json=small_shot("streams-b")).json()["id"]
+        bob_streams = [held.enter_context(open_stream(bob, bob_job)) for _ in range(3)]
+        assert all(s.status_code == 200 for s in bob_streams)
+        with open_stream(bob, bob_job) as over:
+            assert over.status_code == 429
+            over.read()
+            assert "3 event streams open, the limit is 3" in over.json()["detail"]
+        # Another key still gets its streams and its other requests.
+        alice_streams = [held.enter_context(open_stream(alice, alice_job)) for _ in range(2)]
+        assert all(s.status_code == 200 for s in alice_streams)
+        with open_stream(alice, alice_job) as full:
+            assert full.status_code == 429
+            full.read()
+            assert "the server has 5 event streams open" in full.json()["detail"]
+        assert alice.get("/v1/jobs").status_code == 200 and alice.get(f"/v1/jobs/{alice_job}").status_code == 200
+        # A stream that ends gives its slot back.
+        bob_streams[0].close()
+
+        def reopened() -> bool:
+            with open_stream(bob, bob_job) as again:
+                return again.status_code == 200
+
+        assert wait_for(reopened, timeout=20, what="the closed stream's slot to be free")
+
+
+def test_a_key_over_its_active_jobs_gets_429(limited: Stack, tmp_path: Path) -> None:
+    with client(limited, ALICE) as alice, client(limited, BOB) as bob:
+        for job in alice.get("/v1/jobs", params={"state": "queued"}).json()["jobs"]:
+            alice.post(f"/v1/jobs/{job['id']}/cancel")  # another test's queued job
+        first = [alice.post("/v1/jobs", json=small_shot(f"share{i}")) for i in range(2)]
+        assert [r.status_code for r in first] == [201, 201]
+        over = alice.post("/v1/jobs", json=small_shot("share-over"))
+        assert over.status_code == 429 and "2 jobs queued or running, the limit is 2" in over.json()["detail"]
+        resubmitted = alice.post("/v1/jobs", json=small_shot("share-over"), headers={"Idempotency-Key": "k1"})
+        assert resubmitted.status_code == 429, "a new Idempotency-Key is a new job"
+        for job in bob.get("/v1/jobs", params={"state": "queued"}).json()["jobs"]:
+            bob.post(f"/v1/jobs/{job['id']}/cancel")
+        assert bob.post("/v1/jobs", json=small_shot("bob-share")).status_code == 201, "another key is not affected"
+        assert alice.post(f"/v1/jobs/{first[0].json()['id']}/cancel").json()["state"] == "cancelled"
+        assert alice.post("/v1/jobs", json=small_shot("share-after")).status_code == 201
+        cancelled = first[0].json()["id"]
+        full = alice.post(f"/v1/jobs/{cancelled}/retry")
+        assert full.status_code == 429, "a retried job counts towards the key's share"
+        alice.post(f"/v1/jobs/{first[1].json()['id']}/cancel")
+        retried = alice.post(f"/v1/jobs/{cancelled}/retry")
+        assert retried.status_code == 200 and retried.json()["state"] == "queued"
+        assert alice.post("/v1/jobs", json=small_shot("share-full")).status_code == 429
