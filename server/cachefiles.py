@@ -7,14 +7,14 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from weft.cache import TELEMETRY_DTYPE, open_cache_reader
+from weft.cache import STATE_GROUPS, TELEMETRY_DTYPE, open_cache_reader, saved_state_group
 
 
 def committed_rows(f: h5py.File) -> int:
     """Frames fully written: the writer appends positions, velocities, frame number, telemetry,
-    then the solver state, so the state's frame index bounds what a reader may use."""
+    then the solver state, so the saved state's frame index bounds what a reader may use."""
     lengths = [f["frames/positions"].shape[0], f["frames/velocities"].shape[0], f["frames/frame"].shape[0], f["telemetry"].shape[0]]
-    return min(*lengths, int(f["state/frame_index"][0]) + 1)
+    return min(*lengths, int(f[saved_state_group(f)]["frame_index"][0]) + 1)
 
 
 def read_positions(cache: Path, index: int) -> np.ndarray | None:
@@ -32,10 +32,13 @@ def snapshot(cache: Path, target: Path) -> int:
     `weft info` or resumed like any interrupted cache.
     """
     with open_cache_reader(cache) as src, h5py.File(target, "w", libver="latest") as dst:
-        rows = committed_rows(src)
+        saved = saved_state_group(src)
+        rows = min(committed_rows(src), int(src[saved]["frame_index"][0]) + 1)
         dst.attrs.update(dict(src.attrs))
-        for name in ("cloth", "bodies", "state"):
+        for name in ("cloth", "bodies"):
             src.copy(src[name], dst, name)
+        for name in STATE_GROUPS:  # both from the whole one
+            src.copy(src[saved], dst, name)
         frames = dst.create_group("frames")
         for name in ("positions", "velocities"):
             data = src["frames/" + name][:rows]
@@ -44,5 +47,4 @@ def snapshot(cache: Path, target: Path) -> int:
             )
         frames.create_dataset("frame", data=src["frames/frame"][:rows], maxshape=(None,), chunks=(256,), dtype=np.int32)
         dst.create_dataset("telemetry", data=src["telemetry"][:rows], maxshape=(None,), chunks=(64,), dtype=TELEMETRY_DTYPE)
-        dst["state/frame_index"][0] = rows - 1
     return rows

@@ -23,6 +23,8 @@ from api_schemas import TELEMETRY_COLUMNS, FrameTelemetry
 
 CACHE_FORMAT = "weft-cache"
 CACHE_FORMAT_VERSION = 1
+# The exact solver state after the last finished frame, written twice per frame (append).
+STATE_GROUPS = ("state", "state_next")
 TELEMETRY_DTYPE = np.dtype([(name, dtype) for name, dtype, _ in TELEMETRY_COLUMNS])
 
 
@@ -52,7 +54,7 @@ class CacheWriter:
         self._velocities = file["frames/velocities"]
         self._frame_numbers = file["frames/frame"]
         self._telemetry = file["telemetry"]
-        self._state = file["state"]
+        self._states = [file[name] for name in STATE_GROUPS if name in file]
 
     # -- construction -------------------------------------------------------------------
     @classmethod
@@ -126,11 +128,12 @@ class CacheWriter:
             )
         frames.create_dataset("frame", shape=(0,), maxshape=(None,), chunks=(256,), dtype=np.int32)
         f.create_dataset("telemetry", shape=(0,), maxshape=(None,), chunks=(64,), dtype=TELEMETRY_DTYPE)
-        state = f.create_group("state")
-        state.create_dataset("frame_index", data=np.array([-1], dtype=np.int64))
-        state.create_dataset("positions", data=np.zeros((n, 3)))
-        state.create_dataset("velocities", data=np.zeros((n, 3)))
-        state.create_dataset("warm_start", data=np.zeros(3 * n))
+        for name in STATE_GROUPS:
+            state = f.create_group(name)
+            state.create_dataset("frame_index", data=np.array([-1], dtype=np.int64))
+            state.create_dataset("positions", data=np.zeros((n, 3)))
+            state.create_dataset("velocities", data=np.zeros((n, 3)))
+            state.create_dataset("warm_start", data=np.zeros(3 * n))
 
     @classmethod
     def resume(cls, path: str | Path, shot_hash: str) -> tuple[CacheWriter, SolverState | None]:
@@ -157,14 +160,15 @@ class CacheWriter:
         return int(self._frame_numbers.shape[0])
 
     def saved_state(self) -> SolverState | None:
-        index = int(self._state["frame_index"][0])
+        state = self._file[saved_state_group(self._file)]
+        index = int(state["frame_index"][0])
         if index < 0:
             return None
         return SolverState(
             frame_index=index,
-            positions=self._state["positions"][()],
-            velocities=self._state["velocities"][()],
-            warm_start=self._state["warm_start"][()],
+            positions=state["positions"][()],
+            velocities=state["velocities"][()],
+            warm_start=state["warm_start"][()],
         )
 
     def append(
@@ -186,12 +190,22 @@ class CacheWriter:
             row[name] = getattr(telemetry, name)
         self._telemetry.resize(k + 1, axis=0)
         self._telemetry[k] = row[0]
-        # The exact state last: a reader or a resume never sees state ahead of the frames.
-        self._state["positions"][...] = positions
-        self._state["velocities"][...] = velocities
-        self._state["warm_start"][...] = warm_start
-        self._state["frame_index"][0] = k
+        # The exact state last, so a reader or a resume never sees state ahead of the frames;
+        # first into /state_next, then into /state, each group's frame_index written after its
+        # arrays. A writer killed in the middle of either leaves the other group whole, and
+        # ``saved_state_group`` picks the whole one (the larger frame_index): otherwise a kill
+        # between the arrays and the index left the next frame's state under this one's index
+        # and a resume simulated a frame twice.
+        # HDF5 may hold written chunks until a flush, so each index goes out only after its
+        # arrays have been flushed.
         self._file.flush()
+        for state in reversed(self._states):
+            state["positions"][...] = positions
+            state["velocities"][...] = velocities
+            state["warm_start"][...] = warm_start
+            self._file.flush()
+            state["frame_index"][0] = k
+            self._file.flush()
 
     def close(self, status: str = "complete", error: str = "") -> None:
         """Close the file and record how the run ended ('complete', 'failed', 'cancelled', ...)."""
@@ -213,6 +227,14 @@ class CacheWriter:
                 f.attrs["error"] = error
 
 
+def saved_state_group(f: h5py.File) -> str:
+    """The group holding the last finished frame's exact state: of /state and /state_next (caches
+    written before /state_next existed have /state only), the one with the larger frame_index,
+    which is whole because its index is written after its arrays (``CacheWriter.append``)."""
+    groups = [name for name in STATE_GROUPS if name in f]
+    return max(groups, key=lambda name: (int(f[name]["frame_index"][0]), name == "state"))
+
+
 def _file_identity(st: os.stat_result) -> tuple[int, int]:
     return st.st_dev, st.st_ino
 
@@ -222,14 +244,17 @@ def _rewrite_completed(path: Path, status: str, error: str) -> None:
     that replaces `path` atomically, with the given status: what a resume and a recovery need,
     and readable by any HDF5 reader even when the writer died with the file open."""
     with open_cache_reader(path) as old:
-        state_index = int(old["state/frame_index"][0])
+        saved = saved_state_group(old)
+        state_index = int(old[saved]["frame_index"][0])
         tmp = path.with_name(path.name + ".rewrite")
         with h5py.File(tmp, "w", libver="latest") as new:
             new.attrs.update(dict(old.attrs))
             new.attrs["status"] = status
             new.attrs["error"] = error
-            for name in ("cloth", "bodies", "state"):
+            for name in ("cloth", "bodies"):
                 old.copy(old[name], new, name)
+            for name in STATE_GROUPS:  # both from the whole one
+                old.copy(old[saved], new, name)
             frames = new.create_group("frames")
             rows = state_index + 1
             for name in ("positions", "velocities"):

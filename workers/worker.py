@@ -231,11 +231,11 @@ class Worker:
 
     def _backfill(self, job_id: str, cache: Any, published: int, frames_total: int) -> None:
         """Publish frames a dead worker wrote to the cache but did not get to announce."""
-        from weft.cache import CacheError, open_cache_reader
+        from weft.cache import CacheError, open_cache_reader, saved_state_group
 
         try:
             with open_cache_reader(cache) as f:
-                rows = int(f["state/frame_index"][0]) + 1
+                rows = int(f[saved_state_group(f)]["frame_index"][0]) + 1
                 telemetry = f["telemetry"][:rows]
         except (CacheError, KeyError, OSError):
             return

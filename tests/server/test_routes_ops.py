@@ -82,7 +82,7 @@ def test_openapi_lists_every_route_and_the_shot_schema(client: TestClient) -> No
     spec = client.get("/openapi.json").json()
     assert set(spec["paths"]) == {
         "/v1/jobs", "/v1/jobs/{job_id}", "/v1/jobs/{job_id}/telemetry", "/v1/jobs/{job_id}/events",
-        "/v1/jobs/{job_id}/cache", "/v1/jobs/{job_id}/frames/{frame}", "/v1/jobs/{job_id}/cancel",
+        "/v1/jobs/{job_id}/cache", "/v1/jobs/{job_id}/frames/{frame}", "/v1/jobs/{job_id}/cancel", "/v1/jobs/{job_id}/retry",
         "/v1/workers", "/healthz", "/readyz", "/metrics",
     }
     assert "Shot" in spec["components"]["schemas"]

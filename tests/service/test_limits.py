@@ -34,23 +34,24 @@ def open_stream(c: httpx.Client, job_id: str) -> Iterator[httpx.Response]:
         yield response
 
 
+def assert_refused(c: httpx.Client, job_id: str, why: str) -> None:
+    with open_stream(c, job_id) as refused:
+        assert refused.status_code == 429
+        refused.read()
+        assert why in refused.json()["detail"]
+
+
 def test_one_key_cannot_take_every_event_stream(limited: Stack) -> None:
     with client(limited, ALICE) as alice, client(limited, BOB) as bob, contextlib.ExitStack() as held:
         alice_job = alice.post("/v1/jobs", json=small_shot("streams-a")).json()["id"]
         bob_job = bob.post("/v1/jobs", json=small_shot("streams-b")).json()["id"]
         bob_streams = [held.enter_context(open_stream(bob, bob_job)) for _ in range(3)]
         assert all(s.status_code == 200 for s in bob_streams)
-        with open_stream(bob, bob_job) as over:
-            assert over.status_code == 429
-            over.read()
-            assert "3 event streams open, the limit is 3" in over.json()["detail"]
+        assert_refused(bob, bob_job, "3 event streams open, the limit is 3")
         # Another key still gets its streams and its other requests.
         alice_streams = [held.enter_context(open_stream(alice, alice_job)) for _ in range(2)]
         assert all(s.status_code == 200 for s in alice_streams)
-        with open_stream(alice, alice_job) as full:
-            assert full.status_code == 429
-            full.read()
-            assert "the server has 5 event streams open" in full.json()["detail"]
+        assert_refused(alice, alice_job, "the server has 5 event streams open")
         assert alice.get("/v1/jobs").status_code == 200 and alice.get(f"/v1/jobs/{alice_job}").status_code == 200
         # A stream that ends gives its slot back.
         bob_streams[0].close()

@@ -211,3 +211,38 @@ def test_a_stale_writer_cannot_rewrite_a_taken_over_cache(tmp_path) -> None:
     own, _ = CacheWriter.resume(tmp_path / "own.h5", scene.shot_hash)
     own.close("cancelled")
     assert describe_cache(tmp_path / "own.h5")["status"] == "cancelled"
+
+
+def test_a_writer_killed_between_state_arrays_and_index_resumes_exactly(tmp_path) -> None:
+    """A worker SIGKILLed after writing a frame's state arrays but before its frame index left
+    the next frame's state under the previous frame's index, and the resumed run simulated that
+    frame twice (a service cache that differed from the direct run, seen once in five runs of
+    tests/service/test_crash.py). The state goes to /state_next, then /state, each index last:
+    a kill in either leaves the other whole. The torn write is made here by hand."""
+    import h5py
+
+    from weft.runner import ShotRunner
+    from weft.shot import parse_shot
+    from weft.solver_setup import resolve_scene
+
+    shot_path = write_shot(tmp_path, frames=8)
+    scene = resolve_scene(parse_shot(json.loads(shot_path.read_text())), tmp_path)
+    whole, four, torn = tmp_path / "whole.h5", tmp_path / "four.h5", tmp_path / "torn.h5"
+    ShotRunner(scene, whole).run()
+    ShotRunner(scene, four, frames=4).run()
+    ShotRunner(scene, torn, frames=3).run()
+    with h5py.File(four, "r") as done, h5py.File(torn, "r+") as f:
+        # Frame row 3 written, then /state_next whole, then /state's arrays but not its index.
+        for name in ("frames/positions", "frames/velocities", "frames/frame", "telemetry"):
+            f[name].resize(4, axis=0)
+            f[name][3] = done[name][3]
+        for group in ("state_next", "state"):
+            for name in ("positions", "velocities", "warm_start"):
+                f[f"{group}/{name}"][...] = done[f"state/{name}"][()]
+        f["state_next/frame_index"][0] = 3
+        assert f["state/frame_index"][0] == 2
+    assert ShotRunner(scene, torn, resume=True).run().resumed_from == 3
+    with open_cache_reader(whole) as a, open_cache_reader(torn) as b:
+        assert np.array_equal(a["frames/positions"][()], b["frames/positions"][()])
+        for group in ("state", "state_next"):
+            assert np.array_equal(a["state/positions"][()], b[f"{group}/positions"][()])
