@@ -26,6 +26,9 @@ class ApiError(Exception):
         self.detail = detail
         self.errors = errors or []
 
+    def __reduce__(self) -> tuple[Any, ...]:  # raised in a validation process, re-raised in the API
+        return (ApiError, (self.status, self.detail, self.errors))
+
 
 async def api_error(_: Request, exc: ApiError) -> JSONResponse:
     headers = {"WWW-Authenticate": "Bearer"} if exc.status == 401 else None

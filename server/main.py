@@ -19,6 +19,7 @@ from fastapi import FastAPI
 from api_schemas import Shot
 from server.errors import install_error_handlers
 from server.routes import events, jobs, ops, results
+from server.bounded import BoundedValidator
 from server.streams import StreamLimits
 from server.uploads import remove_orphaned_uploads
 from weft import jobstore
@@ -36,6 +37,8 @@ async def lifespan(app: FastAPI) -> AsyncIterator[None]:
     app.state.stream_redis = aioredis.Redis(connection_pool=aioredis.BlockingConnectionPool.from_url(
         settings.redis_url, decode_responses=True, max_connections=settings.max_streams, timeout=10))
     app.state.stream_limits = StreamLimits(settings.max_streams_per_key, settings.max_streams)
+    app.state.validator = BoundedValidator(settings.validation_processes, settings.validation_memory_bytes,
+                                           settings.validation_seconds)
     app.state.scripts = {
         "cancel": app.state.redis.register_script(jobstore.CANCEL_LUA),
         "retry": app.state.redis.register_script(jobstore.RETRY_LUA),
@@ -55,6 +58,7 @@ async def lifespan(app: FastAPI) -> AsyncIterator[None]:
     yield
     await app.state.redis.aclose()
     await app.state.stream_redis.aclose()
+    app.state.validator.close()
 
 
 def create_app(settings: ServiceSettings | None = None) -> FastAPI:

@@ -260,6 +260,11 @@ class ServiceSettings:
     # Redis connections of an API process for everything but event streams (requests wait for
     # a free one rather than fail).
     max_redis_connections: int = 64
+    # Validation of submissions (server/bounded.py): processes, address space of each, seconds
+    # per submission.
+    validation_processes: int = 2
+    validation_memory_bytes: int = 4 * 1024**3
+    validation_seconds: float = 120.0
     # API keys (bearer tokens); empty with local=True: no authentication (loopback only).
     api_keys: tuple[str, ...] = field(default_factory=tuple)
     local: bool = False
@@ -288,6 +293,9 @@ class ServiceSettings:
             max_streams_per_key=_env_int("WEFT_MAX_STREAMS_PER_KEY", cls.max_streams_per_key),
             max_streams=_env_int("WEFT_MAX_STREAMS", cls.max_streams),
             max_redis_connections=_env_int("WEFT_MAX_REDIS_CONNECTIONS", cls.max_redis_connections),
+            validation_processes=_env_int("WEFT_VALIDATION_PROCESSES", cls.validation_processes),
+            validation_memory_bytes=_env_int("WEFT_VALIDATION_MEMORY_BYTES", cls.validation_memory_bytes),
+            validation_seconds=_env_float("WEFT_VALIDATION_SECONDS", cls.validation_seconds),
             api_keys=keys,
             local=os.environ.get("WEFT_LOCAL", "") == "1",
         )

@@ -136,7 +136,7 @@ async def submit_job(
             body, uploaded = await read_limited(request.stream(), settings.max_json_bytes), set()
         else:
             raise ApiError(415, f"unsupported Content-Type {content_type!r}: use application/json or multipart/form-data")
-        shot, vertices = await anyio.to_thread.run_sync(validate_shot, body, assets, uploaded, settings)
+        shot, vertices = await request.app.state.validator.run(validate_shot, body, assets, uploaded, settings)
         request_hash = await anyio.to_thread.run_sync(shot_hash, shot, assets)
         (job_dir / "shot.json").write_text(shot.model_dump_json())
         if idempotency_key:
