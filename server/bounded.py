@@ -21,14 +21,39 @@ from server.errors import ApiError
 T = TypeVar("T")
 
 
-def _limit_child(memory_bytes: int) -> None:
+def _limit_child(memory_bytes: int, parent: int) -> None:
     """Runs first in each child, before numpy or the solver are imported there."""
     import resource
 
+    _exit_with_parent(parent)
     for name in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
         os.environ[name] = "1"  # thread pools reserve address space the limit would count
     if memory_bytes > 0:
         resource.setrlimit(resource.RLIMIT_AS, (memory_bytes, memory_bytes))
+
+
+def _exit_with_parent(parent: int) -> None:
+    """A child whose API process died (killed, or stopped without closing the pool) would wait
+    on its task queue forever: the kernel kills it with its parent (Linux PR_SET_PDEATHSIG), and
+    a watchdog thread ends it if it was re-parented anyway."""
+    import ctypes
+    import signal
+    import threading
+    import time
+
+    try:
+        ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
+    except (AttributeError, OSError):
+        pass
+
+    def watch() -> None:
+        while os.getppid() == parent:
+            time.sleep(1.0)
+        os._exit(0)
+
+    if os.getppid() != parent:
+        os._exit(0)
+    threading.Thread(target=watch, name="parent-watch", daemon=True).start()
 
 
 class BoundedValidator:
@@ -42,7 +67,7 @@ class BoundedValidator:
         if self._pool is None:
             self._pool = ProcessPoolExecutor(
                 max_workers=self.processes, mp_context=multiprocessing.get_context("spawn"),
-                initializer=_limit_child, initargs=(self.memory_bytes,),
+                initializer=_limit_child, initargs=(self.memory_bytes, os.getpid()),
             )
         return self._pool
 
@@ -78,4 +103,5 @@ class BoundedValidator:
                            [{"field": "assets", "problem": "validation process died"}]) from None
 
     def close(self) -> None:
-        self._discard(kill=False)
+        """Stop the children now (they hold nothing worth waiting for)."""
+        self._discard(kill=True)

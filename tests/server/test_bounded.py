@@ -62,3 +62,48 @@ def test_the_shots_own_errors_come_back_unchanged() -> None:
         assert (info.value.status, info.value.errors) == (422, [{"field": "cloth[0].mesh", "problem": "bad"}])
     finally:
         validator.close()
+
+
+def child_pid() -> int:
+    import os
+
+    return os.getpid()
+
+
+def test_children_end_with_their_api_process(tmp_path) -> None:
+    """An API process killed outright must not leave validation children behind (they waited on
+    their task queue forever, one set per stopped stack)."""
+    import os
+    import signal
+    import subprocess
+    import sys
+
+    script = tmp_path / "parent.py"
+    script.write_text(
+        "import asyncio, sys\n"
+        "from server.bounded import BoundedValidator\n"
+        "from tests.server.test_bounded import child_pid\n"
+        "if __name__ == '__main__':\n"
+        "    v = BoundedValidator(processes=1, memory_bytes=0, timeout_seconds=60)\n"
+        "    print(asyncio.run(v.run(child_pid)), flush=True)\n"
+        "    sys.stdin.read()\n"
+    )
+    parent = subprocess.Popen([sys.executable, str(script)], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True,
+                              cwd=os.getcwd(), env={**os.environ, "PYTHONPATH": os.getcwd()})
+    child = int(parent.stdout.readline())
+    os.kill(child, 0)  # alive while its parent lives
+    parent.send_signal(signal.SIGKILL)
+    parent.wait()
+
+    def gone() -> bool:
+        try:
+            os.kill(child, 0)
+        except ProcessLookupError:
+            return True
+        with open(f"/proc/{child}/stat") as stat:
+            return stat.read().split()[2] == "Z"  # a zombie waiting for its reaper is gone too
+
+    deadline = time.monotonic() + 10
+    while not gone() and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert gone(), "the validation child outlived its API process"
