@@ -15,7 +15,7 @@ from api_schemas.shot import (
     SolverSettings,
     Wind,
 )
-from api_schemas.telemetry import TELEMETRY_COLUMNS, FrameTelemetry
+from api_schemas.telemetry import TELEMETRY_COLUMNS, FrameTelemetry, FrameTelemetryJson
 
 __all__ = [
     "SHOT_FORMAT_VERSION",
@@ -26,6 +26,7 @@ __all__ = [
     "Environment",
     "Features",
     "FrameTelemetry",
+    "FrameTelemetryJson",
     "Material",
     "MeshSource",
     "Pin",

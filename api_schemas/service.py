@@ -6,7 +6,7 @@ from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from api_schemas.telemetry import FrameTelemetry
+from api_schemas.telemetry import FrameTelemetryJson
 
 JobState = Literal["queued", "running", "succeeded", "failed", "cancelled"]
 
@@ -68,7 +68,7 @@ class JobList(ApiModel):
 
 class TelemetryPage(ApiModel):
     job_id: str
-    rows: list[FrameTelemetry]
+    rows: list[FrameTelemetryJson]  # type: ignore[valid-type]
 
 
 class WorkerInfo(ApiModel):

@@ -9,7 +9,7 @@ stored as ``i4``, a ``float`` one as ``f8``.
 
 from __future__ import annotations
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, create_model
 
 
 class FrameTelemetry(BaseModel):
@@ -85,3 +85,17 @@ _DTYPES = {int: "i4", float: "f8"}
 TELEMETRY_COLUMNS: list[tuple[str, str, str]] = [
     (name, _DTYPES[info.annotation], info.description or "") for name, info in FrameTelemetry.model_fields.items()
 ]
+
+
+# The same row as JSON (event streams, GET /v1/jobs/{id}/telemetry): JSON has no NaN or Infinity,
+# so a non-finite float (a diverging solve's residual) is null, and the schema says so.
+FrameTelemetryJson: type[BaseModel] = create_model(  # type: ignore[call-overload]
+    "FrameTelemetryJson",
+    __config__=ConfigDict(extra="forbid", frozen=True),
+    __doc__="A frame's telemetry as JSON: FrameTelemetry with each float null when it is not finite.",
+    **{
+        name: ((float | None, Field(info.default, description=f"{info.description} (null when not finite)"))
+               if info.annotation is float else (info.annotation, Field(info.default, description=info.description)))
+        for name, info in FrameTelemetry.model_fields.items()
+    },
+)

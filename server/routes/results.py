@@ -14,7 +14,7 @@ from fastapi import APIRouter, Query, Request
 from fastapi.responses import FileResponse, JSONResponse, Response
 from starlette.background import BackgroundTask
 
-from api_schemas import FrameTelemetry
+from api_schemas import FrameTelemetryJson
 from api_schemas.service import FramePositions, TelemetryPage
 from server import cachefiles
 from server.deps import JobId, Owner, Settings, Store, load_job
@@ -44,7 +44,7 @@ async def get_telemetry(
     for _, fields in await r.xrange(jobstore.events_key(job_id), start, "+"):
         if fields.get("type") == "frame":
             data = json.loads(fields["data"])
-            rows.append(FrameTelemetry(**{k: data[k] for k in FrameTelemetry.model_fields}))
+            rows.append(FrameTelemetryJson(**{k: data[k] for k in FrameTelemetryJson.model_fields}))
     return TelemetryPage(job_id=job_id, rows=rows)
 
 

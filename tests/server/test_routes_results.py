@@ -99,3 +99,26 @@ def test_frame_out_of_range_unsimulated_or_bad_field(alice: Api, bob: Api, finis
 
 def test_frame_needs_a_key(check_auth: Callable[..., None], finished_job: str) -> None:
     check_auth("GET", f"/v1/jobs/{finished_job}/frames/1")
+
+
+def test_telemetry_with_a_non_finite_value_is_null_as_its_schema_says(alice: Api, settings: ServiceSettings,
+                                                                     client) -> None:
+    """Issue 15: /telemetry answered null where its schema said number (and, once events became
+    strict JSON, a non-finite value would have failed the response). A diverged residual is
+    null in the row, and the published schema allows null for the float fields."""
+
+    from api_schemas import FrameTelemetry
+    from weft import jobstore
+    from workers.worker import Worker
+
+    job_id = alice.submit()
+    worker = Worker(settings, name="w-publisher")
+    worker.redis.hset(jobstore.job_key(job_id), mapping={"state": "running", "worker": worker.name})
+    values = {**{name: 0 for name in FrameTelemetry.model_fields}, "frame": 1, "substeps": 1}
+    worker._publish(job_id, 0, 5, FrameTelemetry(**{**values, "final_residual": float("inf")}))
+    worker.redis.close()
+    page = alice.get(f"/v1/jobs/{job_id}/telemetry")
+    assert page.status_code == 200 and page.json()["rows"][0]["final_residual"] is None
+    schemas = client.get("/openapi.json").json()["components"]["schemas"]
+    row = schemas["FrameTelemetryJson"]["properties"]
+    assert {"type": "null"} in row["final_residual"]["anyOf"] and row["frame"]["type"] == "integer"
