@@ -7,7 +7,7 @@ PIP := $(VENV)/bin/pip
 STAMP := $(VENV)/.weft-deps
 CPP_BUILD := build/cpp
 
-.PHONY: setup system-deps build demo test test-cpp test-py regress bench bench-service clean
+.PHONY: setup system-deps browser-deps build demo test test-cpp test-py regress bench bench-service clean
 
 # Debian packages: compiler, CMake, Eigen 3.4, GoogleTest, Redis. Skipped when all present.
 system-deps:
@@ -40,7 +40,11 @@ test-cpp: setup
 	cmake --build $(CPP_BUILD) -j2
 	cd $(CPP_BUILD) && ctest --output-on-failure
 
-test-py: build
+# Debian's Chromium for the dashboard's real-browser test (tests/dashboard/).
+browser-deps:
+	@bash scripts/install-system-deps.sh --test
+
+test-py: build browser-deps
 	$(PY) -m pytest -q
 
 # The regression scenes through a real local stack (Redis, API, 2 workers), judged against

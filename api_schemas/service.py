@@ -26,9 +26,15 @@ class TimingSummary(ApiModel):
     total_seconds: float
 
 
+FailureKind = Literal["solver", "shot", "worker_lost", "error"]
+
+
 class JobError(ApiModel):
     frame: int | None = Field(None, description="Frame at which the solver failed, if it did.")
     reason: str
+    kind: FailureKind | None = Field(
+        None, description="solver: the solve failed (diverged, non-finite); shot: its inputs could not be loaded; "
+                          "worker_lost: its workers kept dying; error: anything else.")
 
 
 class Job(ApiModel):
@@ -101,3 +107,45 @@ class ErrorDetail(ApiModel):
 class ErrorResponse(ApiModel):
     detail: str
     errors: list[ErrorDetail] = Field(default_factory=list)
+
+
+class QueueSample(ApiModel):
+    time: float = Field(description="Unix time of the sample.")
+    queued: int
+    running: int
+    workers_alive: int
+    workers_busy: int
+
+
+class QueueStatus(ApiModel):
+    """The farm's queue: counts over every key (no job of another key is named)."""
+
+    jobs: dict[str, int] = Field(description="Jobs by state.")
+    oldest_queued_seconds: float | None = Field(
+        None, description="How long the longest-waiting queued job has waited (since submission or retry).")
+    workers_alive: int
+    workers_busy: int
+    history: list[QueueSample] = Field(
+        description="Samples taken every few seconds by the API (WEFT_QUEUE_SAMPLE_SECONDS), oldest first.")
+
+
+class PieceSummary(ApiModel):
+    name: str
+    collide: bool = Field(description="Collides with the bodies.")
+    self_collide: bool = Field(description="Takes part in cloth/cloth collision.")
+
+
+class ShotSummary(ApiModel):
+    """What a job's shot asks for, without its meshes: the dashboard's shot panel."""
+
+    job_id: str
+    name: str
+    fps: float
+    substeps: int
+    frame_range: tuple[int, int]
+    vertices: int
+    pieces: list[PieceSummary]
+    bodies: list[str] = Field(description="Collidable bodies.")
+    features: dict[str, str] = Field(
+        description="Each physics feature and whether the shot turns it on ('on', 'off', or 'auto: ...' when the "
+                    "solver decides at setup).")

@@ -1,7 +1,12 @@
 #!/usr/bin/env bash
 # Installs the Debian packages weft needs to build and test. Idempotent; needs root (or sudo).
 set -euo pipefail
+# With --test: also Debian's Chromium, the real browser of the dashboard test (Playwright drives
+# it at /usr/bin/chromium; its own browser download would fail offline).
 packages=(build-essential cmake libeigen3-dev libgtest-dev redis-server python3-venv python3-dev)
+if [ "${1:-}" = "--test" ]; then
+  packages+=(chromium)
+fi
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

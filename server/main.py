@@ -7,6 +7,7 @@ resource), their dependencies (settings, Redis, auth, the caller's job) in ``ser
 
 from __future__ import annotations
 
+import asyncio
 import time
 from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
@@ -18,7 +19,7 @@ from fastapi import FastAPI
 
 from api_schemas import Shot
 from server.errors import install_error_handlers
-from server.routes import events, jobs, ops, results
+from server.routes import dashboard, events, jobs, ops, results
 from server.bounded import BoundedValidator
 from server.streams import StreamLimits
 from server.uploads import remove_orphaned_uploads
@@ -55,7 +56,9 @@ async def lifespan(app: FastAPI) -> AsyncIterator[None]:
         await remove_orphaned_uploads(settings.storage / "jobs", has_record, time.time())
     except redis.RedisError:
         pass  # Redis not up: nothing can be told apart from an orphan now; the next start does it
+    sampler = asyncio.create_task(ops.sample_queue_forever(app.state.redis, settings))
     yield
+    sampler.cancel()
     await app.state.redis.aclose()
     await app.state.stream_redis.aclose()
     app.state.validator.close()
@@ -72,8 +75,9 @@ def create_app(settings: ServiceSettings | None = None) -> FastAPI:
     app.state.settings = settings or ServiceSettings.from_env()
     install_error_handlers(app)
     ops.install_request_metrics(app)
-    for module in (jobs, results, events, ops):
+    for module in (jobs, results, events, ops, dashboard):
         app.include_router(module.router)
+    dashboard.mount_static(app)
 
     generate_openapi = app.openapi
 

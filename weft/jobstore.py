@@ -30,6 +30,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from weft.jobmetrics import OBSERVE_LUA
+
 PREFIX = "weft"
 QUEUE = f"{PREFIX}:queue"
 GROUP = "workers"
@@ -80,7 +82,7 @@ def frame_event_id(index: int) -> str:
 # Returns the job's state after the call ('running' if the worker may run it). Only a claimed
 # entry may take over a running job; a new entry of a running job is a duplicate (a retry
 # queued while the job's earlier entry was still unread) and returns 'duplicate'.
-START_LUA = """
+START_LUA = OBSERVE_LUA + """
 local state = redis.call('HGET', KEYS[1], 'state')
 if not state then return 'missing' end
 if state ~= 'queued' and state ~= 'running' then return state end
@@ -89,6 +91,7 @@ redis.call('SMOVE', 'weft:state:' .. state, 'weft:state:running', ARGV[3])
 local fields = {'state', 'running', 'worker', ARGV[1], 'heartbeat', ARGV[2]}
 if redis.call('HEXISTS', KEYS[1], 'started') == 0 then
   table.insert(fields, 'started'); table.insert(fields, ARGV[2])
+  observe('job_wait_seconds', tonumber(ARGV[2]) - tonumber(redis.call('HGET', KEYS[1], 'created') or ARGV[2]))
 end
 redis.call('HSET', KEYS[1], unpack(fields))
 redis.call('HINCRBY', KEYS[1], 'attempts', 1)
@@ -108,7 +111,7 @@ return 1
 # ARGV: new final state, now, payload JSON, final event id, job id, worker, then field/value
 # pairs. Returns 1 if this call finished the job, 0 if it was already final, -1 if the job has
 # been taken over by another worker.
-FINISH_LUA = """
+FINISH_LUA = OBSERVE_LUA + """
 local state = redis.call('HGET', KEYS[1], 'state')
 if not state then return 0 end
 if state == 'succeeded' or state == 'failed' or state == 'cancelled' then return 0 end
@@ -119,14 +122,19 @@ redis.call('HSET', KEYS[1], 'state', ARGV[1], 'finished', ARGV[2])
 for i = 7, #ARGV, 2 do redis.call('HSET', KEYS[1], ARGV[i], ARGV[i + 1]) end
 redis.pcall('XADD', KEYS[2], ARGV[4], 'type', 'end', 'data', ARGV[3])
 redis.call('HINCRBY', 'weft:stats', 'jobs_' .. ARGV[1], 1)
+local started = redis.call('HGET', KEYS[1], 'started')
+if started then observe('job_run_seconds', tonumber(ARGV[2]) - tonumber(started)) end
+if ARGV[1] == 'failed' then
+  redis.call('HINCRBY', 'weft:failures', redis.call('HGET', KEYS[1], 'failure_kind') or 'error', 1)
+end
 return 1
 """
 
 # ARGV: event id, payload JSON, frames_done, build, solve, collision, gia, total, simulated (0/1),
-# worker. Returns 1 if the frame was published now, 0 if it had been published before, -1 if
+# worker, CG iterations. A simulated frame is filed into the per-frame histograms (jobmetrics). Returns 1 if the frame was published now, 0 if it had been published before, -1 if
 # the job is no longer this worker's (fenced off: a worker presumed dead and replaced publishes
 # nothing).
-FRAME_LUA = """
+FRAME_LUA = OBSERVE_LUA + """
 if redis.call('HGET', KEYS[1], 'worker') ~= ARGV[10] then return -1 end
 local ok = redis.pcall('XADD', KEYS[2], ARGV[1], 'type', 'frame', 'data', ARGV[2])
 if type(ok) == 'table' and ok.err then return 0 end
@@ -139,6 +147,11 @@ if ARGV[9] == '1' then
   redis.call('HINCRBYFLOAT', KEYS[1], 'sum_total', ARGV[8])
   redis.call('HINCRBY', KEYS[1], 'sim_frames', 1)
   redis.call('HINCRBY', 'weft:stats', 'frames_simulated', 1)
+  observe('frame_build_seconds', ARGV[4])
+  observe('frame_solve_seconds', ARGV[5])
+  observe('frame_collision_seconds', ARGV[6])
+  observe('frame_total_seconds', ARGV[8])
+  observe('frame_cg_iterations', ARGV[11])
 end
 return 1
 """
@@ -183,7 +196,7 @@ redis.call('XSETID', KEYS[2], #top > 0 and top[1][1] or '0-0')
 redis.call('XADD', KEYS[2], frames_done .. '-*', 'type', 'retried', 'data', ARGV[3])
 redis.call('SMOVE', 'weft:state:' .. state, 'weft:state:queued', ARGV[2])
 redis.call('SADD', 'weft:owner:' .. redis.call('HGET', KEYS[1], 'owner') .. ':active', ARGV[2])
-redis.call('HDEL', KEYS[1], 'finished', 'error_reason', 'error_frame', 'cancel_requested', 'worker')
+redis.call('HDEL', KEYS[1], 'finished', 'error_reason', 'error_frame', 'failure_kind', 'cancel_requested', 'worker')
 redis.call('HSET', KEYS[1], 'state', 'queued', 'attempts', 0, 'interruptions', 0, 'retried', ARGV[1])
 redis.call('HINCRBY', KEYS[1], 'retries', 1)
 redis.call('XADD', KEYS[3], '*', 'job', ARGV[2])
@@ -268,6 +281,9 @@ class ServiceSettings:
     # API keys (bearer tokens); empty with local=True: no authentication (loopback only).
     api_keys: tuple[str, ...] = field(default_factory=tuple)
     local: bool = False
+    # Operations: /metrics behind an API key; the period of the queue history's samples.
+    metrics_require_key: bool = False
+    queue_sample_seconds: float = 5.0
 
     @classmethod
     def from_env(cls) -> ServiceSettings:
@@ -298,6 +314,8 @@ class ServiceSettings:
             validation_seconds=_env_float("WEFT_VALIDATION_SECONDS", cls.validation_seconds),
             api_keys=keys,
             local=os.environ.get("WEFT_LOCAL", "") == "1",
+            metrics_require_key=os.environ.get("WEFT_METRICS_REQUIRE_KEY", "") == "1",
+            queue_sample_seconds=_env_float("WEFT_QUEUE_SAMPLE_SECONDS", cls.queue_sample_seconds),
         )
 
     def job_dir(self, job_id: str) -> Path:

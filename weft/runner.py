@@ -29,6 +29,7 @@ class FrameRecord:
     frames_total: int
     telemetry: FrameTelemetry
     wall_seconds: float  # including the cache write
+    write_seconds: float = 0.0  # the cache write alone
 
 
 @dataclass
@@ -102,10 +103,13 @@ class ShotRunner:
                     telemetry = initial_telemetry(frame, sim)
                 else:
                     telemetry = telemetry_row(frame, advance(sim, scene, index))
+                write_start = time.perf_counter()
                 writer.append(frame, sim.positions, sim.velocities, sim.warm_start, telemetry)
+                write_end = time.perf_counter()
                 summary.telemetry.append(telemetry)
                 if on_frame is not None:
-                    on_frame(FrameRecord(index, frame, self.frames_total, telemetry, time.perf_counter() - frame_start))
+                    on_frame(FrameRecord(index, frame, self.frames_total, telemetry, write_end - frame_start,
+                                         write_end - write_start))
             else:
                 status = "complete" if self.frames_total == scene.frame_count else "partial"
         except RunInterrupted as exc:

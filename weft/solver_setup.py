@@ -109,6 +109,48 @@ def piece_self_collide(shot: Shot) -> list[bool]:
     ]
 
 
+def piece_body_collide(shot: Shot) -> list[bool]:
+    """Per cloth piece: whether it collides with the bodies (see `collision_switches`)."""
+    features = shot.features
+    has_bodies = any(b.collide for b in shot.bodies)
+    body_default = features.collisions if features.collisions is not None else has_bodies
+    return [
+        bool(body_default and (p.collide if p.collide is not None else True) and features.collisions is not False)
+        for p in shot.cloth
+    ]
+
+
+def feature_summary(shot: Shot) -> dict[str, str]:
+    """The physics a shot turns on, in words, decided from the shot alone (no assets read): the
+    switches of `collision_switches` but GIA's automatic choice, which needs the meshes."""
+    features = shot.features
+    collide, self_collide = piece_body_collide(shot), piece_self_collide(shot)
+    bodies = sum(1 for b in shot.bodies if b.collide)
+    contact = any(collide) and bodies > 0
+    enabled = contact or any(self_collide)
+    pins = sum(len(pin.vertices) for piece in shot.cloth for pin in piece.pins)
+
+    def of_pieces(flags: list[bool]) -> str:
+        return f"on ({sum(flags)} of {len(flags)} pieces)" if any(flags) else "off"
+
+    if not enabled:
+        gia = "off"
+    elif features.gia is None:
+        gia = "auto: on when bodies intersect each other or the cloth starts in intersection"
+    else:
+        gia = "on" if features.gia else "off"
+    wind = shot.environment.wind
+    return {
+        "cloth/body contact": f"{of_pieces(collide)}, {bodies} bodies" if contact else "off",
+        "self-collision": of_pieces(self_collide),
+        "CCD": "on" if enabled and (features.ccd if features.ccd is not None else True) else "off",
+        "GIA": gia,
+        "pins": f"{pins} vertices" if pins else "none",
+        "wind": "on" if wind is not None and any(wind.velocity) else "off",
+        "air drag": f"{shot.environment.air_drag:g} kg/(m^2 s)" if shot.environment.air_drag else "off",
+    }
+
+
 def check_features(shot: Shot) -> None:
     """Refuse physics a shot asks for that this build does not provide (never ignore it)."""
     if shot.features.gia and not any(b.collide for b in shot.bodies) and not any(piece_self_collide(shot)):
@@ -328,12 +370,7 @@ def collision_switches(scene: Scene) -> dict[str, Any]:
     """
     shot = scene.shot
     features = shot.features
-    has_bodies = any(b.collide for b in shot.bodies)
-    body_default = features.collisions if features.collisions is not None else has_bodies
-    piece_collide = [
-        bool(body_default and (p.collide if p.collide is not None else True) and features.collisions is not False)
-        for p in shot.cloth
-    ]
+    piece_collide = piece_body_collide(shot)
     piece_self = piece_self_collide(shot)
     body_collide = [bool(b.collide) for b in shot.bodies]
     any_body = any(piece_collide) and any(body_collide)

@@ -148,7 +148,7 @@ class Worker:
             job = self.redis.hgetall(key)
             if jobstore.failed_attempts(job) > self.settings.max_attempts:
                 reason = f"gave up after {self.settings.max_attempts} attempts (workers died)"
-                self._finish(entry_id, job_id, "failed", error_reason=reason)
+                self._finish(entry_id, job_id, "failed", error_reason=reason, failure_kind="worker_lost")
             elif job.get("cancel_requested") == "1":  # cancelled while its previous worker was dying
                 self._finish(entry_id, job_id, "cancelled")
             else:
@@ -175,7 +175,7 @@ class Worker:
             shot = parse_shot(json.loads((job_dir / "shot.json").read_text()))
             scene = resolve_scene(shot, self.settings.assets_dir(job_dir))
         except (OSError, ValueError, ShotError) as exc:
-            self._finish(entry_id, job_id, "failed", error_reason=f"cannot load the shot: {exc}")
+            self._finish(entry_id, job_id, "failed", error_reason=f"cannot load the shot: {exc}", failure_kind="shot")
             return
         frames_total = scene.frame_count
         published = int(job.get("frames_done", 0))
@@ -188,7 +188,7 @@ class Worker:
                 first_index.append(record.index)
                 if record.index > 0:
                     self._mark_resumed(job_id, record.index - 1 + shot.frame_range[0], record.index)
-            self._publish(job_id, record.index, frames_total, record.telemetry)
+            self._publish(job_id, record.index, frames_total, record.telemetry, record.write_seconds)
 
         def should_stop() -> bool:
             if self.stopping.is_set():
@@ -202,7 +202,8 @@ class Worker:
         try:
             summary = runner.run(on_frame=on_frame, should_stop=should_stop)
         except SolverFailure as exc:
-            self._finish(entry_id, job_id, "failed", error_frame=exc.frame, error_reason=exc.reason)
+            self._finish(entry_id, job_id, "failed", error_frame=exc.frame, error_reason=exc.reason,
+                         failure_kind="solver")
             return
         except (Requeue, Superseded, redis.RedisError):
             raise
@@ -213,17 +214,20 @@ class Worker:
         state = "cancelled" if summary.status == "cancelled" else "succeeded"
         self._finish(entry_id, job_id, state)
 
-    def _publish(self, job_id: str, index: int, frames_total: int, t: FrameTelemetry) -> None:
+    def _publish(self, job_id: str, index: int, frames_total: int, t: FrameTelemetry,
+                 io_seconds: float | None = None) -> None:
         # Strict JSON (browsers' EventSource and most parsers reject NaN and Infinity): a
-        # non-finite value (a diverged residual) is sent as null.
+        # non-finite value (a diverged residual) is sent as null. io_seconds: the frame's cache
+        # write (null for frames a dead worker wrote, published again by _backfill).
         values = {k: (v if not isinstance(v, float) or math.isfinite(v) else None) for k, v in t.model_dump().items()}
-        payload = json.dumps({"index": index, "frames_total": frames_total, "published_at": jobstore.now(), **values},
-                             allow_nan=False)
+        payload = json.dumps({"index": index, "frames_total": frames_total, "published_at": jobstore.now(),
+                              "io_seconds": io_seconds, **values}, allow_nan=False)
         published = self.frame_script(
             keys=[jobstore.job_key(job_id), jobstore.events_key(job_id)],
             args=[
                 jobstore.frame_event_id(index), payload, index + 1, t.build_seconds, t.solve_seconds,
                 t.collision_seconds, t.gia_seconds, t.total_seconds, 1 if t.substeps > 0 else 0, self.name,
+                t.cg_iterations,
             ],
         )
         if published == -1:
@@ -251,9 +255,12 @@ class Worker:
         pipe.xadd(jobstore.events_key(job_id), {"type": "resumed", "data": payload}, id=f"{index}-*")
         pipe.execute()
 
-    def _finish(self, entry_id: str, job_id: str, state: str, error_frame: int | None = None, error_reason: str = "") -> None:
+    def _finish(self, entry_id: str, job_id: str, state: str, error_frame: int | None = None, error_reason: str = "",
+                failure_kind: str = "error") -> None:
+        """failure_kind (for a failed job): one of jobmetrics.FAILURE_KINDS, the label of
+        weft_job_failures_total."""
         key = jobstore.job_key(job_id)
-        fields: list[Any] = []
+        fields: list[Any] = ["failure_kind", failure_kind] if state == "failed" else []
         if error_frame is not None:
             fields += ["error_frame", error_frame]
         if error_reason:

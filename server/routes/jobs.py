@@ -13,7 +13,10 @@ from fastapi import APIRouter, Depends, Header, Query, Request
 from fastapi.responses import JSONResponse, Response
 from redis.commands.core import AsyncScript
 
-from api_schemas.service import Job, JobCreated, JobError, JobList, JobState, TimingSummary
+from api_schemas import Shot
+from api_schemas.service import (
+    Job, JobCreated, JobError, JobList, JobState, PieceSummary, ShotSummary, TimingSummary,
+)
 from server.deps import JobId, Owner, Settings, Store, load_job
 from server.errors import ERRORS, ApiError
 from server.uploads import UploadError, read_limited, receive_multipart
@@ -21,6 +24,7 @@ from server.validation import validate_shot
 from weft import jobstore
 from weft.assets import shot_hash
 from weft.jobstore import ServiceSettings
+from weft.solver_setup import feature_summary, piece_body_collide, piece_self_collide
 
 IDEMPOTENCY = re.compile(r"^[A-Za-z0-9_.:-]{1,128}$")
 IDEMPOTENCY_TTL = 24 * 3600
@@ -50,7 +54,8 @@ def to_job(request: Request, h: dict[str, str]) -> Job:
         )
     error = None
     if h.get("error_reason"):
-        error = JobError(frame=int(h["error_frame"]) if h.get("error_frame") else None, reason=h["error_reason"])
+        error = JobError(frame=int(h["error_frame"]) if h.get("error_frame") else None, reason=h["error_reason"],
+                         kind=h.get("failure_kind") if h["state"] == "failed" else None)  # type: ignore[arg-type]
     return Job(
         id=h["id"], url=job_url(request, h["id"]), name=h["name"], state=h["state"],  # type: ignore[arg-type]
         frames_done=int(h.get("frames_done", 0)), frames_total=int(h["frames_total"]),
@@ -175,25 +180,59 @@ async def list_jobs(
     r: Store,
     owner: Owner,
     state: Annotated[JobState | None, Query(description="Only jobs in this state.")] = None,
+    name: Annotated[str | None, Query(max_length=200, description="Only jobs whose name contains this text "
+                                                                  "(case-insensitive).")] = None,
     offset: Annotated[int, Query(ge=0, le=1_000_000_000)] = 0,
     limit: Annotated[int, Query(ge=1, le=500)] = 50,
 ) -> JobList:
+    """Pages come from the owner's index sorted by submission time; a state filter intersects
+    it with that state's set inside Redis, so only the page's records are read. A name filter
+    reads the names of the (state-filtered) jobs, not whole records."""
     index = jobstore.owner_key(owner)
-    if state is None:  # one page straight from the sorted index
+    if state is None and not name:  # one page straight from the sorted index
         total = await r.zcard(index)
         ids = await r.zrevrange(index, offset, offset + limit - 1)
     else:
-        ids = await r.zrevrange(index, 0, -1)
+        if state is not None:  # sets count as score 1: weights keep the index's submission times
+            matching = await r.zinter({index: 1, jobstore.state_key(state): 0}, aggregate="SUM", withscores=True)
+            ids = [job_id for job_id, _ in sorted(matching, key=lambda item: item[1], reverse=True)]
+        else:
+            ids = await r.zrevrange(index, 0, -1)
+        if name:
+            pipe = r.pipeline(transaction=False)
+            for job_id in ids:
+                pipe.hget(jobstore.job_key(job_id), "name")
+            needle = name.casefold()
+            ids = [job_id for job_id, job_name in zip(ids, await pipe.execute(), strict=True)
+                   if job_name is not None and needle in job_name.casefold()]
+        total = len(ids)
+        ids = ids[offset : offset + limit]
     pipe = r.pipeline(transaction=False)
     for job_id in ids:
         pipe.hgetall(jobstore.job_key(job_id))
-    records = [h for h in await pipe.execute() if h and (state is None or h.get("state") == state)]
-    if state is not None:
-        total = len(records)
-        records = records[offset : offset + limit]
+    records = [h for h in await pipe.execute() if h]
     next_offset = offset + limit if offset + limit < total else None
     return JobList(jobs=[to_job(request, h) for h in records], total=total, offset=offset, limit=limit,
                    next_offset=next_offset)
+
+
+@router.get("/v1/jobs/{job_id}/shot", response_model=ShotSummary, responses=ERRORS,
+            summary="What a job's shot asks for: frames, pieces, bodies and the physics it turns on")
+async def get_shot_summary(job_id: JobId, r: Store, owner: Owner, settings: Settings) -> ShotSummary:
+    h = await load_job(r, owner, job_id)
+    path = settings.job_dir(job_id) / "shot.json"
+    try:
+        shot = await anyio.to_thread.run_sync(lambda: Shot.model_validate_json(path.read_bytes()))
+    except (OSError, ValueError) as exc:
+        raise ApiError(404, f"job {job_id} has no readable shot: {exc}") from None
+    collide, self_collide = piece_body_collide(shot), piece_self_collide(shot)
+    return ShotSummary(
+        job_id=job_id, name=shot.name, fps=shot.fps, substeps=shot.substeps, frame_range=shot.frame_range,
+        vertices=int(h["vertices"]),
+        pieces=[PieceSummary(name=p.name, collide=c, self_collide=sc)
+                for p, c, sc in zip(shot.cloth, collide, self_collide, strict=True)],
+        bodies=[b.name for b in shot.bodies if b.collide], features=feature_summary(shot),
+    )
 
 
 @router.get("/v1/jobs/{job_id}", response_model=Job, responses=ERRORS, summary="A job's state and progress")

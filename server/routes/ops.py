@@ -1,22 +1,26 @@
-"""Operations: the worker list, liveness, readiness and Prometheus metrics (with the request
-counting middleware that feeds them)."""
+"""Operations: the worker list, the queue (with its sampled history), liveness, readiness and
+Prometheus metrics (farm figures read from Redis, where workers record them, plus this API
+process's request counts and latencies)."""
 
 from __future__ import annotations
 
+import asyncio
 import json
+import math
 import time
-from typing import Any
+from typing import Annotated, Any
 
 import redis
-from fastapi import APIRouter, FastAPI, Request
+from fastapi import APIRouter, Depends, FastAPI, Query, Request
 from fastapi.responses import JSONResponse, Response
 from prometheus_client import CONTENT_TYPE_LATEST, CollectorRegistry, Counter, Histogram, generate_latest
-from prometheus_client.core import GaugeMetricFamily
+from prometheus_client.core import CounterMetricFamily, GaugeMetricFamily, HistogramMetricFamily
 
-from api_schemas.service import ErrorResponse, WorkerInfo, WorkerList
-from server.deps import Owner, Settings, Store
+from api_schemas.service import ErrorResponse, QueueSample, QueueStatus, WorkerInfo, WorkerList
+from server.deps import Owner, Settings, Store, caller
 from server.errors import ERRORS
-from weft import jobstore
+from weft import jobmetrics, jobstore
+from weft.jobstore import ServiceSettings
 
 STALE_WORKER_SECONDS = 3600.0
 
@@ -60,25 +64,123 @@ async def readyz(r: Store, settings: Settings) -> JSONResponse:
     return JSONResponse({"status": "ready"})
 
 
-@router.get("/metrics", summary="Prometheus metrics", response_class=Response)
-async def metrics(request: Request, r: Store, settings: Settings) -> Response:
+async def farm_snapshot(r: Any, settings: ServiceSettings) -> dict[str, Any]:
+    """Counts by state, the longest wait in the queue, and the workers (alive, busy), read in
+    two round trips whatever the number of jobs but the queued ones (one field each)."""
     pipe = r.pipeline(transaction=False)
     for state in jobstore.STATES:
         pipe.scard(jobstore.state_key(state))
     pipe.hgetall(jobstore.WORKERS)
-    pipe.hgetall(jobstore.STATS)
-    *counts, workers, stats = await pipe.execute()
-    jobs_gauge = GaugeMetricFamily("weft_jobs", "Jobs by state", labels=["state"])
-    for state, count in zip(jobstore.STATES, counts, strict=True):
-        jobs_gauge.add_metric([state], count)
+    pipe.smembers(jobstore.state_key("queued"))
+    *counts, workers, queued_ids = await pipe.execute()
     now = jobstore.now()
-    alive = sum(1 for w in workers.values() if now - json.loads(w)["heartbeat"] < settings.claim_after_seconds)
-    worker_gauge = GaugeMetricFamily("weft_workers_alive", "Workers with a recent heartbeat", value=alive)
-    frames = GaugeMetricFamily("weft_frames_simulated", "Frames simulated by all workers",
-                               value=float(stats.get("frames_simulated", 0)))
-    extra = b"".join(generate_latest(_Static([m])) for m in (jobs_gauge, worker_gauge, frames))
+    oldest = None
+    if queued_ids:
+        pipe = r.pipeline(transaction=False)
+        for job_id in queued_ids:
+            pipe.hmget(jobstore.job_key(job_id), ["created", "retried"])
+        since = [max(float(c or now), float(t or 0.0)) for c, t in await pipe.execute()]
+        oldest = max(0.0, now - min(since))
+    records = [json.loads(w) for w in workers.values()]
+    alive = [w for w in records if now - float(w["heartbeat"]) < settings.claim_after_seconds]
+    return {
+        "jobs": dict(zip(jobstore.STATES, counts, strict=True)),
+        "oldest_queued_seconds": oldest,
+        "workers": records,
+        "workers_alive": len(alive),
+        "workers_busy": sum(1 for w in alive if w.get("job")),
+    }
+
+
+QUEUE_HISTORY = f"{jobstore.PREFIX}:queue:history"
+QUEUE_SAMPLER_LOCK = f"{jobstore.PREFIX}:queue:sampler"
+QUEUE_HISTORY_LENGTH = 4320  # six hours at the default five seconds
+
+
+async def sample_queue_forever(r: Any, settings: ServiceSettings) -> None:
+    """Every queue_sample_seconds, one sample of the queue into a capped Redis stream. Several
+    API processes share the work: whoever takes the lock for the period samples."""
+    period = settings.queue_sample_seconds
+    while True:
+        try:
+            if await r.set(QUEUE_SAMPLER_LOCK, "1", nx=True, px=max(int(period * 900), 1)):
+                snap = await farm_snapshot(r, settings)
+                await r.xadd(QUEUE_HISTORY, {
+                    "time": jobstore.now(), "queued": snap["jobs"]["queued"], "running": snap["jobs"]["running"],
+                    "workers_alive": snap["workers_alive"], "workers_busy": snap["workers_busy"],
+                }, maxlen=QUEUE_HISTORY_LENGTH, approximate=True)
+        except redis.RedisError:
+            pass  # Redis restarting: the next period tries again
+        await asyncio.sleep(period)
+
+
+@router.get("/v1/queue", response_model=QueueStatus, responses=ERRORS,
+            summary="The farm's queue: jobs by state, the longest wait, workers, and their history")
+async def queue_status(
+    r: Store, owner: Owner, settings: Settings,
+    history: Annotated[int, Query(ge=0, le=QUEUE_HISTORY_LENGTH, description="Newest samples to return.")] = 720,
+) -> QueueStatus:
+    snap = await farm_snapshot(r, settings)
+    samples = []
+    if history:
+        for _, fields in reversed(await r.xrevrange(QUEUE_HISTORY, count=history)):
+            samples.append(QueueSample(time=float(fields["time"]), queued=int(fields["queued"]),
+                                       running=int(fields["running"]), workers_alive=int(fields["workers_alive"]),
+                                       workers_busy=int(fields["workers_busy"])))
+    return QueueStatus(jobs=snap["jobs"], oldest_queued_seconds=snap["oldest_queued_seconds"],
+                       workers_alive=snap["workers_alive"], workers_busy=snap["workers_busy"], history=samples)
+
+
+async def metrics_caller(request: Request, settings: Settings) -> str | None:
+    """/metrics asks for an API key only when WEFT_METRICS_REQUIRE_KEY=1."""
+    if not settings.metrics_require_key:
+        return None
+    return await caller(request, settings)
+
+
+@router.get("/metrics", summary="Prometheus metrics", response_class=Response, responses=ERRORS)
+async def metrics(request: Request, r: Store, settings: Settings,
+                  _: Annotated[str | None, Depends(metrics_caller)] = None) -> Response:
+    snap = await farm_snapshot(r, settings)
+    pipe = r.pipeline(transaction=False)
+    pipe.hgetall(jobstore.STATS)
+    pipe.hgetall(jobmetrics.FAILURES)
+    for spec in jobmetrics.HISTOGRAMS.values():
+        pipe.hgetall(jobmetrics.histogram_key(spec.name))
+    stats, failures, *histograms = await pipe.execute()
+    families: list[Any] = []
+    jobs_gauge = GaugeMetricFamily("weft_jobs", "Jobs by state", labels=["state"])
+    for state, count in snap["jobs"].items():
+        jobs_gauge.add_metric([state], count)
+    families.append(jobs_gauge)
+    families.append(GaugeMetricFamily("weft_queue_depth", "Jobs waiting for a worker", value=snap["jobs"]["queued"]))
+    families.append(GaugeMetricFamily("weft_queue_oldest_seconds", "Seconds the longest-waiting queued job has waited",
+                                      value=snap["oldest_queued_seconds"] or 0.0))
+    families.append(GaugeMetricFamily("weft_workers_alive", "Workers with a recent heartbeat", value=snap["workers_alive"]))
+    families.append(GaugeMetricFamily("weft_workers_busy", "Live workers running a job", value=snap["workers_busy"]))
+    busy = GaugeMetricFamily("weft_worker_busy", "Per live worker: 1 running a job, 0 idle", labels=["worker", "host"])
+    now = jobstore.now()
+    for w in sorted(snap["workers"], key=lambda w: w["name"]):
+        if now - float(w["heartbeat"]) < settings.claim_after_seconds:
+            busy.add_metric([w["name"], w["host"]], 1.0 if w.get("job") else 0.0)
+    families.append(busy)
+    families.append(CounterMetricFamily("weft_frames_simulated", "Frames simulated by all workers",
+                                        value=float(stats.get("frames_simulated", 0))))
+    finished = CounterMetricFamily("weft_jobs_finished", "Jobs that reached a final state", labels=["state"])
+    for state in jobstore.FINAL_STATES:
+        finished.add_metric([state], float(stats.get(f"jobs_{state}", 0)))
+    families.append(finished)
+    failed = CounterMetricFamily("weft_job_failures", "Failed jobs by kind of failure", labels=["kind"])
+    for kind in jobmetrics.FAILURE_KINDS:
+        failed.add_metric([kind], float(failures.get(kind, 0)))
+    families.append(failed)
+    for spec, fields in zip(jobmetrics.HISTOGRAMS.values(), histograms, strict=True):
+        value = jobmetrics.parse_histogram(spec, fields)
+        families.append(HistogramMetricFamily(
+            f"weft_{spec.name}", spec.help,
+            buckets=[("+Inf" if math.isinf(b) else repr(b), c) for b, c in value.buckets], sum_value=value.total))
     registry: CollectorRegistry = request.app.state.metrics_registry
-    return Response(generate_latest(registry) + extra, media_type=CONTENT_TYPE_LATEST)
+    return Response(generate_latest(registry) + generate_latest(_Static(families)), media_type=CONTENT_TYPE_LATEST)
 
 
 def install_request_metrics(app: FastAPI) -> None:

@@ -75,7 +75,7 @@ def test_metrics_count_requests_jobs_and_workers(client: TestClient, alice: Api,
     assert 'weft_http_requests_total{method="GET",route="/v1/jobs/{job_id}",status="404"} 1.0' in text
     assert re.search(r'^weft_http_requests_total\{method="POST",route="/v1/jobs",status="201"\} 2\.0$', text, re.M)
     assert 'weft_jobs{state="succeeded"} 1.0' in text and 'weft_jobs{state="queued"} 1.0' in text
-    assert "weft_workers_alive 1.0" in text and "weft_frames_simulated 4.0" in text
+    assert "weft_workers_alive 1.0" in text and "weft_frames_simulated_total 4.0" in text
 
 
 def test_openapi_lists_every_route_and_the_shot_schema(client: TestClient) -> None:
@@ -83,7 +83,7 @@ def test_openapi_lists_every_route_and_the_shot_schema(client: TestClient) -> No
     assert set(spec["paths"]) == {
         "/v1/jobs", "/v1/jobs/{job_id}", "/v1/jobs/{job_id}/telemetry", "/v1/jobs/{job_id}/events",
         "/v1/jobs/{job_id}/cache", "/v1/jobs/{job_id}/frames/{frame}", "/v1/jobs/{job_id}/cancel", "/v1/jobs/{job_id}/retry",
-        "/v1/workers", "/healthz", "/readyz", "/metrics",
+        "/v1/jobs/{job_id}/shot", "/v1/workers", "/v1/queue", "/healthz", "/readyz", "/metrics",
     }
     assert "Shot" in spec["components"]["schemas"]
     body = spec["paths"]["/v1/jobs"]["post"]["requestBody"]["content"]
