@@ -7,7 +7,7 @@ PIP := $(VENV)/bin/pip
 STAMP := $(VENV)/.weft-deps
 CPP_BUILD := build/cpp
 
-.PHONY: setup system-deps browser-deps build demo test test-cpp test-py regress bench bench-service clean
+.PHONY: setup system-deps browser-deps build demo test test-cpp test-py regress bench bench-service bench-dashboard clean
 
 # Debian packages: compiler, CMake, Eigen 3.4, GoogleTest, Redis. Skipped when all present.
 system-deps:
@@ -58,6 +58,11 @@ test: test-cpp test-py regress
 # frame-to-event latency. Local stack on loopback.
 bench-service: build
 	$(PY) bench/service_bench.py
+
+# Dashboard benchmark (not a test): follow delay, render time of 1,000 frames, the jobs page
+# with 10,000 jobs; Chromium against a local stack (docs/dashboard.md).
+bench-dashboard: build browser-deps
+	$(PY) -m bench.dashboard_bench --json out/dashboard_bench.json
 
 # The fast linear system against the reference path (docs/linear-system.md); a few minutes.
 bench: build

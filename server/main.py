@@ -43,6 +43,7 @@ async def lifespan(app: FastAPI) -> AsyncIterator[None]:
     app.state.scripts = {
         "cancel": app.state.redis.register_script(jobstore.CANCEL_LUA),
         "retry": app.state.redis.register_script(jobstore.RETRY_LUA),
+        "list_filter": app.state.redis.register_script(jobstore.LIST_FILTER_LUA),
     }
     settings.storage.mkdir(parents=True, exist_ok=True)
     try:

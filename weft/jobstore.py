@@ -37,6 +37,9 @@ QUEUE = f"{PREFIX}:queue"
 GROUP = "workers"
 WORKERS = f"{PREFIX}:workers"
 STATS = f"{PREFIX}:stats"
+# Queued jobs by the time they joined the queue (submission, retry or hand-back): the longest
+# wait without reading every queued job. Kept beside the state sets by the same transitions.
+QUEUED_SINCE = f"{PREFIX}:queued_since"
 STATES = ("queued", "running", "succeeded", "failed", "cancelled")
 FINAL_STATES = ("succeeded", "failed", "cancelled")
 TIMING_KEYS = ("build", "solve", "collision", "gia", "total")
@@ -52,6 +55,11 @@ def events_key(job_id: str) -> str:
 
 def owner_key(owner: str) -> str:
     return f"{PREFIX}:owner:{owner}:jobs"
+
+
+def names_key(owner: str) -> str:
+    """A key's job names (job id -> name): the job list's name filter reads this one hash."""
+    return f"{PREFIX}:owner:{owner}:names"
 
 
 def active_key(owner: str) -> str:
@@ -88,6 +96,7 @@ if not state then return 'missing' end
 if state ~= 'queued' and state ~= 'running' then return state end
 if state == 'running' and ARGV[4] ~= 'claimed' then return 'duplicate' end
 redis.call('SMOVE', 'weft:state:' .. state, 'weft:state:running', ARGV[3])
+redis.call('ZREM', 'weft:queued_since', ARGV[3])
 local fields = {'state', 'running', 'worker', ARGV[1], 'heartbeat', ARGV[2]}
 if redis.call('HEXISTS', KEYS[1], 'started') == 0 then
   table.insert(fields, 'started'); table.insert(fields, ARGV[2])
@@ -117,6 +126,7 @@ if not state then return 0 end
 if state == 'succeeded' or state == 'failed' or state == 'cancelled' then return 0 end
 if redis.call('HGET', KEYS[1], 'worker') ~= ARGV[6] then return -1 end
 redis.call('SMOVE', 'weft:state:' .. state, 'weft:state:' .. ARGV[1], ARGV[5])
+redis.call('ZREM', 'weft:queued_since', ARGV[5])
 redis.call('SREM', 'weft:owner:' .. redis.call('HGET', KEYS[1], 'owner') .. ':active', ARGV[5])
 redis.call('HSET', KEYS[1], 'state', ARGV[1], 'finished', ARGV[2])
 for i = 7, #ARGV, 2 do redis.call('HSET', KEYS[1], ARGV[i], ARGV[i + 1]) end
@@ -156,6 +166,39 @@ end
 return 1
 """
 
+# The job list's filters, inside Redis and read-only (no temporary keys: Redis runs with an
+# append-only file): KEYS[1] the owner's index (by submission time), KEYS[2] its name hash,
+# KEYS[3] a state's set. ARGV[1] the lower-case text a name must contain ('' for any; names are
+# ASCII), ARGV[2] '1' to keep only jobs in that state, ARGV[3] offset, ARGV[4] limit. Returns
+# the number of matching jobs followed by the page's ids, newest first. A job missing from the
+# name hash (submitted before it existed) is added from its record.
+LIST_FILTER_LUA = """
+local names = {}
+if ARGV[1] ~= '' then
+  local flat = redis.call('HGETALL', KEYS[2])
+  for i = 1, #flat, 2 do names[flat[i]] = flat[i + 1] end
+end
+local first, last = tonumber(ARGV[3]) + 1, tonumber(ARGV[3]) + tonumber(ARGV[4])
+local out, total = {0}, 0
+for _, id in ipairs(redis.call('ZREVRANGE', KEYS[1], 0, -1)) do
+  local keep = ARGV[2] ~= '1' or redis.call('SISMEMBER', KEYS[3], id) == 1
+  if keep and ARGV[1] ~= '' then
+    local name = names[id]
+    if not name then
+      name = redis.call('HGET', 'weft:job:' .. id, 'name')
+      if name then redis.call('HSET', KEYS[2], id, name) end
+    end
+    keep = name and string.find(string.lower(name), ARGV[1], 1, true)
+  end
+  if keep then
+    total = total + 1
+    if total >= first and total <= last then out[#out + 1] = id end
+  end
+end
+out[1] = total
+return out
+"""
+
 # ARGV: now, payload JSON, final event id, job id.
 # Returns the state after the call: 'cancelled' (was queued), 'cancelling' (running), or the
 # final state it already had.
@@ -164,6 +207,7 @@ local state = redis.call('HGET', KEYS[1], 'state')
 if not state then return 'missing' end
 if state == 'queued' then
   redis.call('SMOVE', 'weft:state:queued', 'weft:state:cancelled', ARGV[4])
+  redis.call('ZREM', 'weft:queued_since', ARGV[4])
   redis.call('SREM', 'weft:owner:' .. redis.call('HGET', KEYS[1], 'owner') .. ':active', ARGV[4])
   redis.call('HSET', KEYS[1], 'state', 'cancelled', 'finished', ARGV[1], 'cancel_requested', '1')
   redis.pcall('XADD', KEYS[2], ARGV[3], 'type', 'end', 'data', ARGV[2])
@@ -195,6 +239,7 @@ local top = redis.call('XREVRANGE', KEYS[2], '+', '-', 'COUNT', 1)
 redis.call('XSETID', KEYS[2], #top > 0 and top[1][1] or '0-0')
 redis.call('XADD', KEYS[2], frames_done .. '-*', 'type', 'retried', 'data', ARGV[3])
 redis.call('SMOVE', 'weft:state:' .. state, 'weft:state:queued', ARGV[2])
+redis.call('ZADD', 'weft:queued_since', ARGV[1], ARGV[2])
 redis.call('SADD', 'weft:owner:' .. redis.call('HGET', KEYS[1], 'owner') .. ':active', ARGV[2])
 redis.call('HDEL', KEYS[1], 'finished', 'error_reason', 'error_frame', 'failure_kind', 'cancel_requested', 'worker')
 redis.call('HSET', KEYS[1], 'state', 'queued', 'attempts', 0, 'interruptions', 0, 'retried', ARGV[1])
@@ -210,12 +255,15 @@ def now() -> float:
 
 # -- multi-command transitions (queued into a MULTI pipeline, sync or asyncio client) ---------
 def queue_new_job(pipe: Any, record: dict[str, Any]) -> None:
-    """Submission: the job record, the owner's index, the queued set and the stream entry."""
+    """Submission: the job record, the owner's indexes (by time, names), the queued set and the
+    stream entry."""
     job_id = record["id"]
     pipe.hset(job_key(job_id), mapping=record)
     pipe.zadd(owner_key(record["owner"]), {job_id: record["created"]})
+    pipe.hset(names_key(record["owner"]), job_id, record["name"])
     pipe.sadd(active_key(record["owner"]), job_id)
     pipe.sadd(state_key("queued"), job_id)
+    pipe.zadd(QUEUED_SINCE, {job_id: record["created"]})
     pipe.xadd(QUEUE, {"job": job_id})
 
 
@@ -226,6 +274,7 @@ def requeue(pipe: Any, job_id: str, entry_id: str) -> None:
     pipe.hset(job_key(job_id), mapping={"state": "queued", "worker": ""})
     pipe.hincrby(job_key(job_id), "interruptions", 1)
     pipe.smove(state_key("running"), state_key("queued"), job_id)
+    pipe.zadd(QUEUED_SINCE, {job_id: now()})
     pipe.xadd(QUEUE, {"job": job_id})
     pipe.xack(QUEUE, GROUP, entry_id)
 

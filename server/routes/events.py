@@ -49,7 +49,7 @@ async def job_events(
         yield "retry: 1000\n\n"
         while not await request.is_disconnected():
             try:
-                found = await r.xread({jobstore.events_key(job_id): last}, count=200, block=2000)
+                found = await r.xread({jobstore.events_key(job_id): last}, count=1000, block=2000)
             except redis.ConnectionError:  # Redis restarting: keep the client, retry
                 yield ": job store unavailable, retrying\n\n"
                 await asyncio.sleep(0.5)

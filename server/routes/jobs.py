@@ -36,6 +36,10 @@ def cancel_script(request: Request) -> AsyncScript:
     return request.app.state.scripts["cancel"]  # type: ignore[no-any-return]
 
 
+def list_filter_script(request: Request) -> AsyncScript:
+    return request.app.state.scripts["list_filter"]  # type: ignore[no-any-return]
+
+
 def retry_script(request: Request) -> AsyncScript:
     return request.app.state.scripts["retry"]  # type: ignore[no-any-return]
 
@@ -179,34 +183,24 @@ async def list_jobs(
     request: Request,
     r: Store,
     owner: Owner,
+    list_filter: Annotated[AsyncScript, Depends(list_filter_script)],
     state: Annotated[JobState | None, Query(description="Only jobs in this state.")] = None,
     name: Annotated[str | None, Query(max_length=200, description="Only jobs whose name contains this text "
                                                                   "(case-insensitive).")] = None,
     offset: Annotated[int, Query(ge=0, le=1_000_000_000)] = 0,
     limit: Annotated[int, Query(ge=1, le=500)] = 50,
 ) -> JobList:
-    """Pages come from the owner's index sorted by submission time; a state filter intersects
-    it with that state's set inside Redis, so only the page's records are read. A name filter
-    reads the names of the (state-filtered) jobs, not whole records."""
+    """Pages come from the owner's index sorted by submission time. Filters run inside Redis
+    (LIST_FILTER_LUA: state from the state's set, name from the key's name hash, never the job
+    records), which answers the count and one page of ids; only the page's records are read."""
     index = jobstore.owner_key(owner)
     if state is None and not name:  # one page straight from the sorted index
         total = await r.zcard(index)
         ids = await r.zrevrange(index, offset, offset + limit - 1)
     else:
-        if state is not None:  # sets count as score 1: weights keep the index's submission times
-            matching = await r.zinter({index: 1, jobstore.state_key(state): 0}, aggregate="SUM", withscores=True)
-            ids = [job_id for job_id, _ in sorted(matching, key=lambda item: item[1], reverse=True)]
-        else:
-            ids = await r.zrevrange(index, 0, -1)
-        if name:
-            pipe = r.pipeline(transaction=False)
-            for job_id in ids:
-                pipe.hget(jobstore.job_key(job_id), "name")
-            needle = name.casefold()
-            ids = [job_id for job_id, job_name in zip(ids, await pipe.execute(), strict=True)
-                   if job_name is not None and needle in job_name.casefold()]
-        total = len(ids)
-        ids = ids[offset : offset + limit]
+        total, *ids = await list_filter(
+            keys=[index, jobstore.names_key(owner), jobstore.state_key(state or "queued")],
+            args=[(name or "").lower(), "1" if state else "0", offset, limit])
     pipe = r.pipeline(transaction=False)
     for job_id in ids:
         pipe.hgetall(jobstore.job_key(job_id))

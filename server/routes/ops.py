@@ -65,22 +65,16 @@ async def readyz(r: Store, settings: Settings) -> JSONResponse:
 
 
 async def farm_snapshot(r: Any, settings: ServiceSettings) -> dict[str, Any]:
-    """Counts by state, the longest wait in the queue, and the workers (alive, busy), read in
-    two round trips whatever the number of jobs but the queued ones (one field each)."""
+    """Counts by state, the longest wait in the queue, and the workers (alive, busy): one round
+    trip, whatever the number of jobs."""
     pipe = r.pipeline(transaction=False)
     for state in jobstore.STATES:
         pipe.scard(jobstore.state_key(state))
     pipe.hgetall(jobstore.WORKERS)
-    pipe.smembers(jobstore.state_key("queued"))
-    *counts, workers, queued_ids = await pipe.execute()
+    pipe.zrange(jobstore.QUEUED_SINCE, 0, 0, withscores=True)
+    *counts, workers, first_queued = await pipe.execute()
     now = jobstore.now()
-    oldest = None
-    if queued_ids:
-        pipe = r.pipeline(transaction=False)
-        for job_id in queued_ids:
-            pipe.hmget(jobstore.job_key(job_id), ["created", "retried"])
-        since = [max(float(c or now), float(t or 0.0)) for c, t in await pipe.execute()]
-        oldest = max(0.0, now - min(since))
+    oldest = max(0.0, now - first_queued[0][1]) if first_queued else None
     records = [json.loads(w) for w in workers.values()]
     alive = [w for w in records if now - float(w["heartbeat"]) < settings.claim_after_seconds]
     return {

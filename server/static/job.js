@@ -13,7 +13,7 @@
   let charts = null;
   // For tests and the dashboard benchmark: what the page has drawn, and how long drawing took.
   const status = (window.weftDashboard = { jobId, framesShown: 0, renders: 0, lastRenderMs: null,
-    receivedAt: {}, publishedAt: {}, state: null, error: null });
+    publishedAt: {}, shownAt: {}, state: null, error: null, stream: null, streamHistory: [], charts: null });
 
   function fail(text) {
     status.error = text;
@@ -31,8 +31,9 @@
       cg: weft.chart(c("chart-cg"), "CG iterations per frame", ["CG iterations", "unconverged substeps"]),
       contacts: weft.chart(c("chart-contacts"), "Contacts and CCD per frame (log)",
         ["contact constraints", "proximity pairs", "CCD candidates", "CCD hits", "broad-phase pairs"], { log: true }),
-      intersections: weft.chart(c("chart-intersections"), "Intersections and strain at frame end",
-        ["intersecting triangle pairs", "unresolved pairs", "GIA coloured vertices", "max edge strain"]),
+      intersections: weft.chart(c("chart-intersections"), "Intersections at frame end",
+        ["intersecting triangle pairs", "unresolved pairs", "GIA coloured vertices"]),
+      strain: weft.chart(c("chart-strain"), "Longest edge over its rest length at frame end", ["max edge strain"]),
       energy: weft.chart(c("chart-energy"), "Energy at frame end", ["kinetic", "potential"], { yLabel: "J" }),
     };
   }
@@ -43,7 +44,7 @@
     const start = performance.now();
     const list = [...rows.values()].sort((a, b) => a.index - b.index);
     const x = column(list, "frame");
-    if (!charts) charts = makeCharts();
+    if (!charts) charts = status.charts = makeCharts();
     const other = list.map((r) =>
       Math.max(0, (r.total_seconds ?? 0) - r.build_seconds - r.solve_seconds - r.collision_seconds - r.gia_seconds));
     charts.seconds.set(x, [column(list, "build_seconds"), column(list, "solve_seconds"),
@@ -52,14 +53,29 @@
     charts.contacts.set(x, ["contact_constraints", "proximity_pairs", "ccd_candidates", "ccd_hits",
       "broad_phase_pairs"].map((k) => column(list, k)));
     charts.intersections.set(x, [list.map((r) => (r.intersections < 0 ? null : r.intersections)),
-      column(list, "unresolved_collisions"), column(list, "gia_coloured_vertices"), column(list, "max_edge_strain")]);
+      column(list, "unresolved_collisions"), column(list, "gia_coloured_vertices")]);
+    charts.strain.set(x, [column(list, "max_edge_strain")]);
     charts.energy.set(x, [column(list, "kinetic_energy"), column(list, "potential_energy")]);
-    document.getElementById("no-frames").hidden = list.length > 0;
+    // A chart of physics the shot does not use (all zero: no contact, no intersection) is left
+    // out, and the note says so.
+    const unused = [];
+    for (const [chart, title] of [[charts.contacts, "contacts and CCD"], [charts.intersections, "intersections"]]) {
+      const silent = list.length > 0 && chart.plot.data.slice(1).every((col) => col.every((v) => v == null || v === 0));
+      chart.plot.root.parentElement.hidden = silent;
+      if (silent) unused.push(title);
+    }
+    const note = document.getElementById("no-frames");
+    note.hidden = list.length > 0 && !unused.length;
+    note.textContent = list.length === 0 ? "No frames yet: the charts fill in as the job runs."
+      : `Not drawn, all zero in this shot: ${unused.join(", ")}.`;
     renderCosts(list);
     renderSummary();
     status.framesShown = list.length;
     status.renders += 1;
     status.lastRenderMs = performance.now() - start;
+    status.lastRenderAt = performance.now(); // ms since the page's navigation started
+    const now = Date.now() / 1000;
+    for (const r of list) status.shownAt[r.index] ??= now;
   }
 
   let pending = false;
@@ -129,7 +145,7 @@
         line("impulses and impact zones", mean(simulated, "collision_response_seconds"), true),
         line("GIA", mean(simulated, "gia_seconds")),
         line("whole step", total),
-        line("cache write", mean(simulated, "io_seconds"))));
+        line("cache write (after the step)", mean(simulated, "io_seconds"))));
     const costs = document.getElementById("costs");
     costs.replaceChildren(el("h2", {}, "Features and what they cost"), featureList, table);
   }
@@ -144,7 +160,7 @@
       const dl = el("dl", {},
         el("dt", {}, "frames"), el("dd", {}, `${shot.frame_range[0]}–${shot.frame_range[1]} at ${shot.fps} fps`),
         el("dt", {}, "substeps"), el("dd", {}, String(shot.substeps)),
-        el("dt", {}, "cloth"), el("dd", {}, `${shot.pieces.length} pieces, ${number(shot.vertices)} vertices: `
+        el("dt", {}, "cloth"), el("dd", {}, `${shot.pieces.length} ${shot.pieces.length === 1 ? "piece" : "pieces"}, ${number(shot.vertices)} vertices: `
           + shot.pieces.map((p) => p.name).join(", ")),
         el("dt", {}, "bodies"), el("dd", {}, shot.bodies.length ? shot.bodies.join(", ") : "none"));
       shotPanel.replaceChildren(el("h2", {}, "Shot"), dl);
@@ -202,7 +218,6 @@
     weft.followEvents(jobId, (event) => {
       if (event.type === "frame") {
         rows.set(event.data.index, event.data);
-        status.receivedAt[event.data.index] = Date.now() / 1000;
         status.publishedAt[event.data.index] = event.data.published_at;
         if (job && event.data.index + 1 > job.frames_done) job.frames_done = event.data.index + 1;
         scheduleRender();
@@ -214,11 +229,13 @@
         error: `stream error: ${error?.message}` }[state] ?? state;
       streamStatus.className = `stream-status stream-${state}`;
       status.stream = state;
+      status.streamHistory.push(state);
     });
     // The record (state, worker, attempts, timing) between frames: every 2 s until final.
     const poll = async () => {
       try {
         await refreshJob();
+        message.replaceChildren();
       } catch (error) {
         weft.showError(message, error);
       }

@@ -43,6 +43,16 @@ def test_list_filters_by_name_and_state_newest_first(alice: Api, bob: Api, redis
         "jobs": [], "total": 0, "offset": 0, "limit": 50, "next_offset": None}
 
 
+def test_name_filter_finds_jobs_submitted_before_the_name_index(alice: Api, redis_db: redis.Redis) -> None:
+    from server.deps import owner_of_key
+
+    job_id = alice.submit(small_shot("older-job"))
+    names = jobstore.names_key(owner_of_key(ALICE))
+    redis_db.delete(names)  # as a job store written by an earlier version
+    assert [j["id"] for j in alice.get("/v1/jobs", params={"name": "older"}).json()["jobs"]] == [job_id]
+    assert redis_db.hget(names, job_id) == "older-job"  # added to the index on the way
+
+
 def test_list_name_filter_longer_than_200_characters_is_a_422(alice: Api) -> None:
     r = alice.get("/v1/jobs", params={"name": "x" * 201})
     assert r.status_code == 422 and "name" in r.text
@@ -67,7 +77,7 @@ def test_queue_counts_waits_workers_and_history(redis_db: redis.Redis, settings:
         alice = Api(c, ALICE)
         first = alice.submit()
         alice.submit()
-        redis_db.hset(jobstore.job_key(first), "created", jobstore.now() - 120)  # waited two minutes
+        redis_db.zadd(jobstore.QUEUED_SINCE, {first: jobstore.now() - 120})  # as if queued two minutes ago
         Worker(settings, name="w-idle")._beat()
         queue = alice.get("/v1/queue").json()
         assert queue["jobs"]["queued"] == 2 and queue["jobs"]["running"] == 0
@@ -86,6 +96,22 @@ def test_queue_counts_waits_workers_and_history(redis_db: redis.Redis, settings:
         assert [s["time"] for s in history] == sorted(s["time"] for s in history)
         assert alice.get("/v1/queue", params={"history": 0}).json()["history"] == []
         assert alice.get("/v1/queue", params={"history": -1}).status_code == 422
+
+
+def test_longest_wait_follows_the_queue_through_start_cancel_and_retry(
+    alice: Api, redis_db: redis.Redis, run_worker: Callable[[], str | None],
+) -> None:
+    def oldest() -> float | None:
+        return alice.get("/v1/queue").json()["oldest_queued_seconds"]  # type: ignore[no-any-return]
+
+    assert oldest() is None
+    ran, cancelled = alice.submit(), alice.submit()
+    assert oldest() is not None and redis_db.zcard(jobstore.QUEUED_SINCE) == 2
+    assert alice.post(f"/v1/jobs/{cancelled}/cancel").json()["state"] == "cancelled"
+    assert run_worker() == ran
+    assert oldest() is None and redis_db.zcard(jobstore.QUEUED_SINCE) == 0
+    assert alice.post(f"/v1/jobs/{cancelled}/retry").status_code == 200
+    assert redis_db.zrange(jobstore.QUEUED_SINCE, 0, -1) == [cancelled] and 0 <= oldest() < 5  # type: ignore[operator]
 
 
 def test_queue_needs_a_key(check_auth: Callable[..., None]) -> None:
@@ -123,7 +149,7 @@ def test_metrics_show_busy_and_idle_workers_and_the_longest_wait(
     client: TestClient, alice: Api, redis_db: redis.Redis, settings: ServiceSettings,
 ) -> None:
     job_id = alice.submit()
-    redis_db.hset(jobstore.job_key(job_id), "created", jobstore.now() - 60)
+    redis_db.zadd(jobstore.QUEUED_SINCE, {job_id: jobstore.now() - 60})
     busy, idle = Worker(settings, name="w-busy"), Worker(settings, name="w-idle")
     busy._current = ("0-1", job_id)
     busy._beat()
