@@ -186,6 +186,7 @@ const weft = (() => {
   }
 
   // -- charts ------------------------------------------------------------------------------
+  const FRAME_STEPS = [1, 2, 5, 10, 20, 50, 100, 200, 500, 1000, 2000, 5000, 10000, 20000, 50000, 100000, 1e6];
   const PALETTE = ["#3b6fb6", "#e07b39", "#4f9d69", "#b54a8c", "#8c6d31", "#6b6ecf", "#999999", "#c03d3d"];
 
   // A chart of series over frames (or over time: xTime, x in Unix seconds). stacked: each series drawn on top of the ones before it
@@ -211,7 +212,7 @@ const weft = (() => {
       height,
       series,
       scales: { x: { time: xTime }, y: log ? { distr: 3 } : {} },
-      axes: [{ label: xTime ? "" : "frame" }, { label: yLabel, size: 60, values: (u, ticks) => ticks.map(fmtTick) }],
+      axes: [xTime ? {} : { label: "frame", incrs: FRAME_STEPS }, { label: yLabel, size: 60, values: (u, ticks) => ticks.map(fmtTick) }],
       legend: { live: true },
       cursor: { drag: { x: true, y: false } },
     };

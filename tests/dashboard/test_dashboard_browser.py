@@ -14,6 +14,7 @@ import httpx
 import numpy as np
 from playwright.sync_api import Browser, Page, expect
 
+from scenes.builders import sheet_shot
 from server.stack import Stack
 from tests.dashboard.support import ALICE, BOB, PageLog, context_with_key, running_shot, screenshot, submit
 
@@ -92,7 +93,9 @@ def test_job_page_follows_a_running_shot_and_shows_its_telemetry(
 
 def test_jobs_page_filters_and_compares(stack: Stack, alice: httpx.Client, alice_page: tuple[Page, PageLog]) -> None:
     page, log = alice_page
-    ids = [submit(alice, running_shot(name, 6)) for name in ("compare-one", "compare-two")]
+    # One scene (a sheet falling from horizontal, held at two corners) at 8 and at 2 substeps.
+    ids = [submit(alice, sheet_shot(name, 16, 16, 0.5, 0.5, plane="xz", pins=[0, 15], frames=6, substeps=n))
+           for name, n in (("compare-one", 8), ("compare-two", 2))]
     with httpx.Client(base_url=stack.url, headers={"Authorization": f"Bearer {BOB}"}) as bob:
         secret = submit(bob, running_shot("bobs-secret", 3))
     for job_id in ids:
@@ -127,6 +130,15 @@ def test_jobs_page_filters_and_compares(stack: Stack, alice: httpx.Client, alice
     first_id = page.url.split("jobs=")[1].split(",")[0]
     assert compared.first.get_attribute("data-job") == first_id
     expect(compared.first).to_contain_text("1.00x")
+    # Distance to the first job's cloth at the last common frame, as the API's positions give it.
+    frames = [np.array(alice.get(f"/v1/jobs/{job_id}/frames/6").json()["positions"]) for job_id in ids]
+    if first_id != ids[0]:
+        frames.reverse()
+    distance = np.linalg.norm(frames[1] - frames[0], axis=1) * 1e3
+    cells = compared.locator("td[data-distance]").all_inner_texts()
+    assert cells[0] == "0 / 0 mm"
+    rms, most = (float(v) for v in re.match(r"([\d.]+) / ([\d.]+) mm", cells[1].replace(",", "")).groups())  # type: ignore[union-attr]
+    assert rms > 1 and abs(rms - np.sqrt(np.mean(distance**2))) < 1e-3 and abs(most - distance.max()) < 1e-3
     totals = page.evaluate("() => document.querySelectorAll('#chart-total .u-legend .u-series').length")
     assert totals == 3  # the frame axis and one series per job
     screenshot(page, "compare")
