@@ -42,6 +42,10 @@ class Job(ApiModel):
     url: str
     name: str
     state: JobState
+    priority: int = Field(50, description="0-100; a higher priority runs first.")
+    pool: str = Field("default", description="The worker pool that runs it.")
+    tags: list[str] = Field(default_factory=list)
+    owner: str | None = Field(None, description="The submitting key's owner id (shown to admin keys only).")
     frames_done: int
     frames_total: int
     frame_range: tuple[int, int]
@@ -149,3 +153,16 @@ class ShotSummary(ApiModel):
     features: dict[str, str] = Field(
         description="Each physics feature and whether the shot turns it on ('on', 'off', or 'auto: ...' when the "
                     "solver decides at setup).")
+
+
+class LogLine(ApiModel):
+    id: str = Field(description="Line id: pass it as 'since' to get only later lines.")
+    time: float
+    level: str
+    worker: str
+    message: str
+
+
+class JobLog(ApiModel):
+    job_id: str
+    lines: list[LogLine]

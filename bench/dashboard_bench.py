@@ -18,7 +18,6 @@ local stack on loopback.
 from __future__ import annotations
 
 import argparse
-import json
 import statistics
 import tempfile
 import time
@@ -30,6 +29,7 @@ import httpx
 import redis
 from playwright.sync_api import sync_playwright
 
+from bench.stats import percentiles, write_json
 from scenes.builders import sheet_shot
 from server.stack import Stack
 from weft import jobstore
@@ -37,15 +37,6 @@ from weft import jobstore
 CHROMIUM = "/usr/bin/chromium"
 CHROMIUM_ARGS = ["--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run", "--disable-background-networking",
                  "--disable-component-update", "--disable-sync", "--disable-dev-shm-usage"]
-
-
-def percentiles(values: list[float]) -> dict[str, float]:
-    ordered = sorted(values)
-
-    def pick(q: float) -> float:
-        return ordered[min(len(ordered) - 1, int(q * len(ordered)))]
-
-    return {"n": len(ordered), "p50": pick(0.5), "p90": pick(0.9), "p99": pick(0.99), "max": ordered[-1]}
 
 
 def submit(c: httpx.Client, shot: dict[str, Any]) -> str:
@@ -158,9 +149,7 @@ def main(argv: list[str] | None = None) -> None:
         print(f"| GET /v1/jobs ({label}), {jp['jobs']} jobs, p50 / p99 / max | {q['p50'] * 1e3:.1f} / {q['p99'] * 1e3:.1f} / {q['max'] * 1e3:.1f} ms | |")
     print(f"| jobs page: navigation to the first page drawn, {jp['jobs']} jobs, median of 5 | "
           f"{jp['page_load_median_s'] * 1e3:.0f} ms | responsive |")
-    if args.json:
-        args.json.parent.mkdir(parents=True, exist_ok=True)
-        args.json.write_text(json.dumps(results, indent=2))
+    write_json(args.json, results)
 
 
 if __name__ == "__main__":

@@ -26,16 +26,8 @@ import httpx
 from httpx_sse import aconnect_sse
 
 from server.stack import Stack
+from bench.stats import percentiles
 from scenes.builders import sheet_shot
-
-
-def percentiles(values: list[float]) -> dict[str, float]:
-    ordered = sorted(values)
-
-    def pick(q: float) -> float:
-        return ordered[min(len(ordered) - 1, int(q * len(ordered)))]
-
-    return {"n": len(ordered), "p50": pick(0.5), "p90": pick(0.9), "p99": pick(0.99), "max": ordered[-1]}
 
 
 async def submit(client: httpx.AsyncClient, shot: dict[str, Any]) -> str:

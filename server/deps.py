@@ -41,12 +41,26 @@ def owner_of_key(token: str) -> str:
     return hashlib.sha256(token.encode()).hexdigest()[:24]
 
 
+class Caller(str):
+    """The caller's owner id (a hash of its key; 'local' in local mode), used as a string
+    everywhere; ``admin`` is true for a key of WEFT_ADMIN_KEYS, which sees and manages every
+    key's jobs (its own submissions are still its own)."""
+
+    admin: bool = False
+
+    @classmethod
+    def of(cls, owner: str, admin: bool = False) -> Caller:
+        caller = cls(owner)
+        caller.admin = admin
+        return caller
+
+
 # Declares bearer auth in the OpenAPI document (the 'Authorize' button of /docs); the checks
 # are ours, so that each failure gets its own message.
 bearer_scheme = HTTPBearer(auto_error=False, description="An API key of this service.")
 
 
-async def caller(request: Request, settings: Settings, _: Annotated[object, Depends(bearer_scheme)] = None) -> str:
+async def caller(request: Request, settings: Settings, _: Annotated[object, Depends(bearer_scheme)] = None) -> Caller:
     """The owner id of the caller's API key ('local' in local mode)."""
     authorization = request.headers.get("authorization")
     if settings.local:
@@ -57,25 +71,27 @@ async def caller(request: Request, settings: Settings, _: Annotated[object, Depe
             loopback = host in {"testclient", "localhost"}
         if not loopback:
             raise ApiError(403, "local mode only serves loopback clients")
-        return "local"
+        return Caller.of("local", admin=True)  # one user: it sees everything
     if not authorization:
         raise ApiError(401, "missing API key: send 'Authorization: Bearer <key>'")
     scheme, _, token = authorization.partition(" ")
     if scheme.lower() != "bearer" or not token.strip():
         raise ApiError(401, "malformed Authorization header: expected 'Bearer <key>'")
     token = token.strip()
-    if not any(hmac.compare_digest(token.encode(), key.encode()) for key in settings.api_keys):
+    admin = any(hmac.compare_digest(token.encode(), key.encode()) for key in settings.admin_keys)
+    if not admin and not any(hmac.compare_digest(token.encode(), key.encode()) for key in settings.api_keys):
         raise ApiError(401, "unknown API key")
-    return owner_of_key(token)
+    return Caller.of(owner_of_key(token), admin)
 
 
-Owner = Annotated[str, Depends(caller)]
+Owner = Annotated[Caller, Depends(caller)]
 
 
 async def load_job(r: aioredis.Redis, owner: str, job_id: str) -> dict[str, str]:
-    """The job record; 404 when it does not exist or belongs to another key (indistinguishable)."""
+    """The job record; 404 when it does not exist or belongs to another key (indistinguishable),
+    unless the caller is an admin."""
     h = await r.hgetall(jobstore.job_key(job_id))
-    if not h or not hmac.compare_digest(h.get("owner", ""), owner):
+    if not h or not (getattr(owner, "admin", False) or hmac.compare_digest(h.get("owner", ""), owner)):
         raise ApiError(404, f"no job {job_id}")
     return h  # type: ignore[no-any-return]
 

@@ -20,6 +20,7 @@ from fastapi import FastAPI
 from api_schemas import Shot
 from server.errors import install_error_handlers
 from server.routes import dashboard, events, jobs, ops, results
+from server import retention
 from server.bounded import BoundedValidator
 from server.streams import StreamLimits
 from server.uploads import remove_orphaned_uploads
@@ -44,6 +45,7 @@ async def lifespan(app: FastAPI) -> AsyncIterator[None]:
         "cancel": app.state.redis.register_script(jobstore.CANCEL_LUA),
         "retry": app.state.redis.register_script(jobstore.RETRY_LUA),
         "list_filter": app.state.redis.register_script(jobstore.LIST_FILTER_LUA),
+        "delete": app.state.redis.register_script(jobstore.DELETE_LUA),
     }
     settings.storage.mkdir(parents=True, exist_ok=True)
     try:
@@ -57,9 +59,19 @@ async def lifespan(app: FastAPI) -> AsyncIterator[None]:
         await remove_orphaned_uploads(settings.storage / "jobs", has_record, time.time())
     except redis.RedisError:
         pass  # Redis not up: nothing can be told apart from an orphan now; the next start does it
-    sampler = asyncio.create_task(ops.sample_queue_forever(app.state.redis, settings))
+    stop_housekeeping = asyncio.Event()
+    housekeeping = [
+        asyncio.create_task(ops.sample_queue_until(stop_housekeeping, app.state.redis, settings)),
+        asyncio.create_task(retention.sweep_until(stop_housekeeping, app.state.redis, settings,
+                                                  app.state.scripts["delete"])),
+    ]
     yield
-    sampler.cancel()
+    stop_housekeeping.set()
+    for task in housekeeping:
+        try:
+            await asyncio.wait_for(task, timeout=15)
+        except (TimeoutError, asyncio.CancelledError):
+            task.cancel()
     await app.state.redis.aclose()
     await app.state.stream_redis.aclose()
     app.state.validator.close()

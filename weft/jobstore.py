@@ -3,23 +3,31 @@ server (``server``) and the workers (``workers``). Imports nothing from either.
 
 Keys (all prefixed ``weft:``):
 
-- ``weft:queue``: the job stream. One entry per queued run, read by the ``workers`` consumer
-  group with XREADGROUP. A worker acknowledges (XACK) an entry only once its job reached a
-  final state, so the entry of a worker that died stays pending and another worker takes it
-  over with XAUTOCLAIM once it has been idle longer than the claim timeout. Live workers keep
-  their entry fresh by re-claiming it (XCLAIM ... JUSTID) from their heartbeat thread.
-- ``weft:job:{id}``: hash with the job record (see ``JOB_FIELDS``).
+- ``weft:ready:{pool}:{owner}``, ``weft:ready:{pool}``, ``weft:doorbell:{pool}``: queued jobs
+  waiting for a worker, the keys with jobs waiting in a pool, and the pool's wake-up list
+  (``weft.scheduler``, which picks the next job: priority, pools, fair share, quotas).
+- ``weft:queue``: the job stream. A worker gets an entry for the job the scheduler gave it,
+  delivered to it at once (consumer group ``workers``). A worker acknowledges (XACK) an entry
+  only once its job reached a final state or was handed back, so the entry of a worker that
+  died stays pending and another worker takes it over with XAUTOCLAIM once it has been idle
+  longer than the claim timeout. Live workers keep their entry fresh by re-claiming it (XCLAIM
+  ... JUSTID) from their heartbeat thread.
+- ``weft:job:{id}``: hash with the job record.
 - ``weft:job:{id}:events``: stream of the job's events. Frame events use the explicit entry id
   ``{index + 1}-0`` (index: 0-based cache row), so publishing a frame twice is refused by Redis
   itself and every frame appears exactly once, in order. The final event uses
   ``{frames_total + 1}-0``.
-- ``weft:owner:{owner}:jobs``: sorted set of an API key's job ids, scored by creation time.
+- ``weft:job:{id}:log``: stream of the worker's log lines for the job.
+- ``weft:owner:{owner}:jobs`` and ``weft:jobs``: sorted sets of a key's (every key's) job ids by
+  creation time; ``weft:owner:{owner}:names``, ``weft:names``: id -> name;
+  ``weft:owner:{owner}:tag:{tag}``, ``weft:tag:{tag}``: ids with a tag.
 - ``weft:owner:{owner}:active``: set of the key's queued and running job ids (its share of the
   farm, bounded by ``max_active_jobs``).
-- ``weft:state:{state}``: set of the job ids in each state (for metrics).
+- ``weft:state:{state}``: set of the job ids in each state; ``weft:queued_since`` (queued jobs
+  by queue time) and ``weft:finished`` (final jobs by finish time, for retention).
 - ``weft:idem:{owner}:{key}``: idempotency key -> job id (SET NX, with a TTL).
 - ``weft:workers``: hash worker name -> JSON heartbeat record.
-- ``weft:stats``: hash of counters (frames simulated, jobs finished).
+- ``weft:stats``, ``weft:failures``, ``weft:hist:*``: counters and histograms (``weft.jobmetrics``).
 """
 
 from __future__ import annotations
@@ -30,7 +38,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from weft import scheduler
 from weft.jobmetrics import OBSERVE_LUA
+from weft.scheduler import READY_LUA
 
 PREFIX = "weft"
 QUEUE = f"{PREFIX}:queue"
@@ -40,6 +50,11 @@ STATS = f"{PREFIX}:stats"
 # Queued jobs by the time they joined the queue (submission, retry or hand-back): the longest
 # wait without reading every queued job. Kept beside the state sets by the same transitions.
 QUEUED_SINCE = f"{PREFIX}:queued_since"
+# Every job of every key by submission time, and their names (what an admin key lists); jobs in
+# a final state by the time they reached it (retention).
+ALL_JOBS = f"{PREFIX}:jobs"
+ALL_NAMES = f"{PREFIX}:names"
+FINISHED = f"{PREFIX}:finished"
 STATES = ("queued", "running", "succeeded", "failed", "cancelled")
 FINAL_STATES = ("succeeded", "failed", "cancelled")
 TIMING_KEYS = ("build", "solve", "collision", "gia", "total")
@@ -60,6 +75,16 @@ def owner_key(owner: str) -> str:
 def names_key(owner: str) -> str:
     """A key's job names (job id -> name): the job list's name filter reads this one hash."""
     return f"{PREFIX}:owner:{owner}:names"
+
+
+def tag_key(owner: str | None, tag: str) -> str:
+    """The jobs of a key (owner None: of every key) carrying a tag."""
+    return f"{PREFIX}:owner:{owner}:tag:{tag}" if owner is not None else f"{PREFIX}:tag:{tag}"
+
+
+def log_key(job_id: str) -> str:
+    """Stream of the log lines workers wrote while running the job."""
+    return f"{PREFIX}:job:{job_id}:log"
 
 
 def active_key(owner: str) -> str:
@@ -129,6 +154,7 @@ redis.call('SMOVE', 'weft:state:' .. state, 'weft:state:' .. ARGV[1], ARGV[5])
 redis.call('ZREM', 'weft:queued_since', ARGV[5])
 redis.call('SREM', 'weft:owner:' .. redis.call('HGET', KEYS[1], 'owner') .. ':active', ARGV[5])
 redis.call('HSET', KEYS[1], 'state', ARGV[1], 'finished', ARGV[2])
+redis.call('ZADD', 'weft:finished', ARGV[2], ARGV[5])
 for i = 7, #ARGV, 2 do redis.call('HSET', KEYS[1], ARGV[i], ARGV[i + 1]) end
 redis.pcall('XADD', KEYS[2], ARGV[4], 'type', 'end', 'data', ARGV[3])
 redis.call('HINCRBY', 'weft:stats', 'jobs_' .. ARGV[1], 1)
@@ -167,10 +193,11 @@ return 1
 """
 
 # The job list's filters, inside Redis and read-only (no temporary keys: Redis runs with an
-# append-only file): KEYS[1] the owner's index (by submission time), KEYS[2] its name hash,
-# KEYS[3] a state's set. ARGV[1] the lower-case text a name must contain ('' for any; names are
-# ASCII), ARGV[2] '1' to keep only jobs in that state, ARGV[3] offset, ARGV[4] limit. Returns
-# the number of matching jobs followed by the page's ids, newest first. A job missing from the
+# append-only file). KEYS: the index to list (an owner's, or every job's), its name hash, a
+# state's set, a tag's set. ARGV: the lower-case text a name must contain ('' for any; names
+# are ASCII), '1' to keep only jobs in the state set, offset, limit, '1' to keep only jobs in
+# the tag set, then the submission-time range (min, max; '-inf', '+inf' for any). Returns the
+# number of matching jobs followed by the page's ids, newest first. A job missing from the
 # name hash (submitted before it existed) is added from its record.
 LIST_FILTER_LUA = """
 local names = {}
@@ -180,8 +207,9 @@ if ARGV[1] ~= '' then
 end
 local first, last = tonumber(ARGV[3]) + 1, tonumber(ARGV[3]) + tonumber(ARGV[4])
 local out, total = {0}, 0
-for _, id in ipairs(redis.call('ZREVRANGE', KEYS[1], 0, -1)) do
-  local keep = ARGV[2] ~= '1' or redis.call('SISMEMBER', KEYS[3], id) == 1
+for _, id in ipairs(redis.call('ZREVRANGEBYSCORE', KEYS[1], ARGV[7], ARGV[6])) do
+  local keep = (ARGV[2] ~= '1' or redis.call('SISMEMBER', KEYS[3], id) == 1)
+    and (ARGV[5] ~= '1' or redis.call('SISMEMBER', KEYS[4], id) == 1)
   if keep and ARGV[1] ~= '' then
     local name = names[id]
     if not name then
@@ -202,12 +230,14 @@ return out
 # ARGV: now, payload JSON, final event id, job id.
 # Returns the state after the call: 'cancelled' (was queued), 'cancelling' (running), or the
 # final state it already had.
-CANCEL_LUA = """
+CANCEL_LUA = READY_LUA + """
 local state = redis.call('HGET', KEYS[1], 'state')
 if not state then return 'missing' end
 if state == 'queued' then
   redis.call('SMOVE', 'weft:state:queued', 'weft:state:cancelled', ARGV[4])
   redis.call('ZREM', 'weft:queued_since', ARGV[4])
+  ready_remove(KEYS[1], ARGV[4])
+  redis.call('ZADD', 'weft:finished', ARGV[1], ARGV[4])
   redis.call('SREM', 'weft:owner:' .. redis.call('HGET', KEYS[1], 'owner') .. ':active', ARGV[4])
   redis.call('HSET', KEYS[1], 'state', 'cancelled', 'finished', ARGV[1], 'cancel_requested', '1')
   redis.pcall('XADD', KEYS[2], ARGV[3], 'type', 'end', 'data', ARGV[2])
@@ -222,13 +252,13 @@ return state
 """
 
 
-# KEYS[1] job hash, KEYS[2] events stream, KEYS[3] queue stream. ARGV: now, job id, payload JSON.
-# A failed or cancelled job goes back to the queue to continue from its last finished frame:
+# KEYS[1] job hash, KEYS[2] events stream. ARGV: now, job id, payload JSON.
+# A failed or cancelled job goes back to its ready set (weft.scheduler) to continue from its last finished frame:
 # its final event is removed (the stream's last id set back to its newest remaining entry, so
 # the frames still to come keep their ids {index + 1}-0), a 'retried' event follows the frames
 # published so far, and the attempt counters, cancel flag and error start afresh. Returns
 # 'queued', or the state the job had if it was not failed or cancelled ('missing' if none).
-RETRY_LUA = """
+RETRY_LUA = READY_LUA + """
 local state = redis.call('HGET', KEYS[1], 'state')
 if not state then return 'missing' end
 if state ~= 'failed' and state ~= 'cancelled' then return state end
@@ -244,8 +274,52 @@ redis.call('SADD', 'weft:owner:' .. redis.call('HGET', KEYS[1], 'owner') .. ':ac
 redis.call('HDEL', KEYS[1], 'finished', 'error_reason', 'error_frame', 'failure_kind', 'cancel_requested', 'worker')
 redis.call('HSET', KEYS[1], 'state', 'queued', 'attempts', 0, 'interruptions', 0, 'retried', ARGV[1])
 redis.call('HINCRBY', KEYS[1], 'retries', 1)
-redis.call('XADD', KEYS[3], '*', 'job', ARGV[2])
+redis.call('ZREM', 'weft:finished', ARGV[2])
+ready_add(KEYS[1], ARGV[2], ARGV[1])
 return 'queued'
+"""
+
+
+# A stopping worker hands its running job back: queued again in its ready set (it keeps its
+# priority; its wait starts now), the worker's stream entry acknowledged. The interruption is
+# counted apart from the attempts: a graceful stop (a rolling restart) is not a failure and
+# never makes a job give up (see ``failed_attempts``). KEYS[1] job hash, KEYS[2] queue stream.
+# ARGV: now, job id, entry id, group, worker. Returns 1, or 0 if the job is not this worker's.
+REQUEUE_LUA = READY_LUA + """
+if redis.call('HGET', KEYS[1], 'worker') ~= ARGV[5] or redis.call('HGET', KEYS[1], 'state') ~= 'running' then
+  redis.call('XACK', KEYS[2], ARGV[4], ARGV[3])
+  return 0
+end
+redis.call('HSET', KEYS[1], 'state', 'queued', 'worker', '')
+redis.call('HINCRBY', KEYS[1], 'interruptions', 1)
+redis.call('SMOVE', 'weft:state:running', 'weft:state:queued', ARGV[2])
+redis.call('ZADD', 'weft:queued_since', ARGV[1], ARGV[2])
+ready_add(KEYS[1], ARGV[2], ARGV[1])
+redis.call('XACK', KEYS[2], ARGV[4], ARGV[3])
+return 1
+"""
+
+# Deleting a job in a final state: its record, events, log and every index. KEYS[1] job hash.
+# ARGV: job id. Returns the state it had ('missing' if none); deletes only a final job.
+DELETE_LUA = """
+local state = redis.call('HGET', KEYS[1], 'state')
+if not state then return 'missing' end
+if state ~= 'succeeded' and state ~= 'failed' and state ~= 'cancelled' then return state end
+local id = ARGV[1]
+local owner = redis.call('HGET', KEYS[1], 'owner')
+local tags = cjson.decode(redis.call('HGET', KEYS[1], 'tags') or '[]')
+for _, tag in ipairs(tags) do
+  redis.call('SREM', 'weft:owner:' .. owner .. ':tag:' .. tag, id)
+  redis.call('SREM', 'weft:tag:' .. tag, id)
+end
+redis.call('ZREM', 'weft:owner:' .. owner .. ':jobs', id)
+redis.call('HDEL', 'weft:owner:' .. owner .. ':names', id)
+redis.call('ZREM', 'weft:jobs', id)
+redis.call('HDEL', 'weft:names', id)
+redis.call('SREM', 'weft:state:' .. state, id)
+redis.call('ZREM', 'weft:finished', id)
+redis.call('DEL', KEYS[1], KEYS[1] .. ':events', KEYS[1] .. ':log')
+return state
 """
 
 
@@ -254,29 +328,23 @@ def now() -> float:
 
 
 # -- multi-command transitions (queued into a MULTI pipeline, sync or asyncio client) ---------
-def queue_new_job(pipe: Any, record: dict[str, Any]) -> None:
-    """Submission: the job record, the owner's indexes (by time, names), the queued set and the
-    stream entry."""
-    job_id = record["id"]
+def queue_new_job(pipe: Any, record: dict[str, Any], tags: list[str] | tuple[str, ...] = ()) -> None:
+    """Submission: the job record, the indexes (the owner's and every key's: by time, names,
+    tags), the queued set, and its pool's ready set (weft.scheduler; a worker dispatches it)."""
+    job_id, owner = record["id"], record["owner"]
     pipe.hset(job_key(job_id), mapping=record)
-    pipe.zadd(owner_key(record["owner"]), {job_id: record["created"]})
-    pipe.hset(names_key(record["owner"]), job_id, record["name"])
-    pipe.sadd(active_key(record["owner"]), job_id)
+    pipe.zadd(owner_key(owner), {job_id: record["created"]})
+    pipe.hset(names_key(owner), job_id, record["name"])
+    pipe.zadd(ALL_JOBS, {job_id: record["created"]})
+    pipe.hset(ALL_NAMES, job_id, record["name"])
+    for tag in tags:
+        pipe.sadd(tag_key(owner, tag), job_id)
+        pipe.sadd(tag_key(None, tag), job_id)
+    pipe.sadd(active_key(owner), job_id)
     pipe.sadd(state_key("queued"), job_id)
     pipe.zadd(QUEUED_SINCE, {job_id: record["created"]})
-    pipe.xadd(QUEUE, {"job": job_id})
-
-
-def requeue(pipe: Any, job_id: str, entry_id: str) -> None:
-    """A stopping worker hands its running job back: queued again, new stream entry, old one acked.
-    The interruption is counted apart from the attempts: a graceful stop (a rolling restart) is
-    not a failure and never makes a job give up (see ``failed_attempts``)."""
-    pipe.hset(job_key(job_id), mapping={"state": "queued", "worker": ""})
-    pipe.hincrby(job_key(job_id), "interruptions", 1)
-    pipe.smove(state_key("running"), state_key("queued"), job_id)
-    pipe.zadd(QUEUED_SINCE, {job_id: now()})
-    pipe.xadd(QUEUE, {"job": job_id})
-    pipe.xack(QUEUE, GROUP, entry_id)
+    scheduler.add_ready(pipe, job_id, owner, record.get("pool", scheduler.DEFAULT_POOL),
+                        int(record.get("priority", scheduler.DEFAULT_PRIORITY)), record["created"])
 
 
 def failed_attempts(job: dict[str, str]) -> int:
@@ -292,6 +360,10 @@ def _env_float(name: str, default: float) -> float:
 
 def _env_int(name: str, default: int) -> int:
     return int(os.environ.get(name, default))
+
+
+def _env_list(name: str) -> tuple[str, ...]:
+    return tuple(item.strip() for item in os.environ.get(name, "").split(",") if item.strip())
 
 
 @dataclass(frozen=True)
@@ -333,6 +405,17 @@ class ServiceSettings:
     # Operations: /metrics behind an API key; the period of the queue history's samples.
     metrics_require_key: bool = False
     queue_sample_seconds: float = 5.0
+    # Keys that see and manage every key's jobs (and are API keys themselves).
+    admin_keys: tuple[str, ...] = field(default_factory=tuple)
+    # Scheduling (weft.scheduler): the pools a worker serves, in order of preference; how many
+    # jobs one key may have running at once (0: no limit).
+    pools: tuple[str, ...] = ("default",)
+    max_running_jobs: int = 0
+    # Retention of finished jobs (record, events, log, assets and cache): delete those finished
+    # more than retention_days ago, and the oldest finished ones while the job folders take more
+    # than retention_bytes (0: keep).
+    retention_days: float = 0.0
+    retention_bytes: int = 0
 
     @classmethod
     def from_env(cls) -> ServiceSettings:
@@ -365,6 +448,11 @@ class ServiceSettings:
             local=os.environ.get("WEFT_LOCAL", "") == "1",
             metrics_require_key=os.environ.get("WEFT_METRICS_REQUIRE_KEY", "") == "1",
             queue_sample_seconds=_env_float("WEFT_QUEUE_SAMPLE_SECONDS", cls.queue_sample_seconds),
+            admin_keys=_env_list("WEFT_ADMIN_KEYS"),
+            pools=_env_list("WEFT_POOLS") or cls.pools,
+            max_running_jobs=_env_int("WEFT_MAX_RUNNING_JOBS", cls.max_running_jobs),
+            retention_days=_env_float("WEFT_RETENTION_DAYS", cls.retention_days),
+            retention_bytes=_env_int("WEFT_RETENTION_BYTES", cls.retention_bytes),
         )
 
     def job_dir(self, job_id: str) -> Path:

@@ -1,4 +1,5 @@
-"""A weft worker: takes jobs from the Redis stream and runs them frame by frame.
+"""A weft worker: takes jobs (chosen by ``weft.scheduler``: priority, its pools, fair share) and
+runs them frame by frame.
 
 Each frame is appended to the job's HDF5 cache by ``ShotRunner`` and then published as an
 event (see ``weft.jobstore``). A background thread heart-beats: it refreshes the worker's
@@ -22,7 +23,7 @@ from typing import Any
 import redis
 
 from api_schemas import FrameTelemetry
-from weft import jobstore
+from weft import jobstore, scheduler
 from weft.jobstore import ServiceSettings
 from weft.runner import FrameRecord, ShotRunner, SolverFailure
 from weft.shot import ShotError, parse_shot
@@ -39,6 +40,29 @@ class Superseded(Exception):
     """Raised between frames when another worker took the job over (this one was presumed dead)."""
 
 
+LOG_LINES_PER_JOB = 5000
+
+
+class JobLogHandler(logging.Handler):
+    """Copies the log records of the thread running a job into the job's log stream
+    (``GET /v1/jobs/{id}/log``), keeping its newest LOG_LINES_PER_JOB lines."""
+
+    def __init__(self, client: redis.Redis, job_id: str, worker: str) -> None:
+        super().__init__(logging.INFO)
+        self.client, self.key, self.worker = client, jobstore.log_key(job_id), worker
+        self.thread = threading.get_ident()
+        self.setFormatter(logging.Formatter("%(message)s"))
+
+    def emit(self, record: logging.LogRecord) -> None:
+        if record.thread != self.thread:
+            return
+        try:
+            self.client.xadd(self.key, {"time": record.created, "level": record.levelname, "worker": self.worker,
+                                        "message": self.format(record)}, maxlen=LOG_LINES_PER_JOB, approximate=True)
+        except redis.RedisError:
+            pass  # the log is best effort; the job's state and frames are not
+
+
 class Worker:
     def __init__(self, settings: ServiceSettings, name: str | None = None) -> None:
         self.settings = settings
@@ -48,6 +72,8 @@ class Worker:
         self.finish_script = self.redis.register_script(jobstore.FINISH_LUA)
         self.frame_script = self.redis.register_script(jobstore.FRAME_LUA)
         self.heartbeat_script = self.redis.register_script(jobstore.HEARTBEAT_LUA)
+        self.dispatch_script = self.redis.register_script(scheduler.DISPATCH_LUA)
+        self.requeue_script = self.redis.register_script(jobstore.REQUEUE_LUA)
         self.stopping = threading.Event()
         self._lock = threading.Lock()
         self._current: tuple[str, str] | None = None  # (stream entry id, job id)
@@ -87,18 +113,23 @@ class Worker:
                 raise
 
     def _next_entry(self) -> tuple[str, str, bool] | None:
-        """A stale entry of a dead worker first, else a new one (blocking up to one second):
-        (entry id, job id, whether it was claimed from another worker)."""
+        """A stale entry of a dead worker first, else the job the scheduler gives this worker
+        (waiting up to one second on the doorbells of its pools): (entry id, job id, whether it
+        was claimed from another worker)."""
         claim_ms = int(self.settings.claim_after_seconds * 1000)
         _, claimed, _ = self.redis.xautoclaim(jobstore.QUEUE, jobstore.GROUP, self.name, claim_ms, "0-0", count=1)
         for entry_id, fields in claimed:
             if fields:  # an entry trimmed from the stream comes back without fields
                 return entry_id, fields["job"], True
             self.redis.xack(jobstore.QUEUE, jobstore.GROUP, entry_id)
-        read = self.redis.xreadgroup(jobstore.GROUP, self.name, {jobstore.QUEUE: ">"}, count=1, block=1000)
-        for _, entries in read or []:
-            for entry_id, fields in entries:
-                return entry_id, fields["job"], False
+        for attempt in range(2):
+            dispatched = self.dispatch_script(
+                keys=[jobstore.QUEUE],
+                args=[self.name, jobstore.GROUP, self.settings.max_running_jobs, *self.settings.pools])
+            if dispatched:
+                return dispatched[0], dispatched[1], False
+            if attempt == 0:
+                self.redis.blpop([scheduler.doorbell_key(pool) for pool in self.settings.pools], timeout=1)
         return None
 
     # -- heartbeat --------------------------------------------------------------------------
@@ -143,9 +174,17 @@ class Worker:
             return
         with self._lock:
             self._current = (entry_id, job_id)
+        job_log = JobLogHandler(self.redis, job_id, self.name)
+        weft_logger = logging.getLogger("weft")
+        if weft_logger.getEffectiveLevel() > logging.INFO:  # the job's log has its INFO lines
+            weft_logger.setLevel(logging.INFO)
+        weft_logger.addHandler(job_log)
         try:
             self._beat()
             job = self.redis.hgetall(key)
+            log.info("job %s started on worker %s (host %s, attempt %s%s; pool %s, priority %s)", job_id, self.name,
+                     socket.gethostname(), job.get("attempts"), ", taken over from a silent worker" if claimed else "",
+                     job.get("pool", scheduler.DEFAULT_POOL), job.get("priority", scheduler.DEFAULT_PRIORITY))
             if jobstore.failed_attempts(job) > self.settings.max_attempts:
                 reason = f"gave up after {self.settings.max_attempts} attempts (workers died)"
                 self._finish(entry_id, job_id, "failed", error_reason=reason, failure_kind="worker_lost")
@@ -155,12 +194,13 @@ class Worker:
                 self._run(entry_id, job_id, job)
         except Requeue:
             # Shutting down: hand the job back to the queue at once (no claim timeout).
-            pipe = self.redis.pipeline(transaction=True)
-            jobstore.requeue(pipe, job_id, entry_id)
-            pipe.execute()
+            log.info("worker %s stopping: job handed back to the queue", self.name)
+            self.requeue_script(keys=[jobstore.job_key(job_id), jobstore.QUEUE],
+                                args=[jobstore.now(), job_id, entry_id, jobstore.GROUP, self.name])
         except Superseded:
             log.warning("job %s was taken over by another worker; leaving it", job_id)
         finally:
+            weft_logger.removeHandler(job_log)
             with self._lock:
                 self._current = None
             try:
@@ -189,6 +229,9 @@ class Worker:
                 if record.index > 0:
                     self._mark_resumed(job_id, record.index - 1 + shot.frame_range[0], record.index)
             self._publish(job_id, record.index, frames_total, record.telemetry, record.write_seconds)
+            if (record.index + 1) % max(frames_total // 10, 1) == 0 or record.index + 1 == frames_total:
+                log.info("frame %d (%d of %d): %.3f s solver, %d CG iterations", record.frame, record.index + 1,
+                         frames_total, record.telemetry.total_seconds, record.telemetry.cg_iterations)
 
         def should_stop() -> bool:
             if self.stopping.is_set():
@@ -278,7 +321,7 @@ class Worker:
         if done == -1:
             raise Superseded
         self.redis.xack(jobstore.QUEUE, jobstore.GROUP, entry_id)
-        log.info("job %s %s", job_id, state)
+        log.info("job %s %s%s", job_id, state, f": {error_reason}" if error_reason else "")
 
 
 def main() -> None:

@@ -20,6 +20,7 @@ from weft import jobstore
 router = APIRouter()
 
 EVENT_ID = re.compile(r"^\d{1,19}-\d{1,19}$")
+EVENT_BATCH_SECONDS = 0.1
 
 
 @router.get(
@@ -57,12 +58,20 @@ async def job_events(
             if not found:
                 yield ": keep-alive\n\n"
                 continue
+            chunk, ended = [], False
             for _, entries in found:
                 for event_id, fields in entries:
                     last = event_id
-                    yield f"id: {event_id}\nevent: {fields['type']}\ndata: {fields['data']}\n\n"
-                    if fields["type"] == "end":
-                        return
+                    chunk.append(f"id: {event_id}\nevent: {fields['type']}\ndata: {fields['data']}\n\n")
+                    ended = fields["type"] == "end"
+                    if ended:
+                        break
+            yield "".join(chunk)  # one write per batch of events
+            if ended:
+                return
+            # Events that come faster than this go out together: a shot of short frames costs
+            # the API one write per period, not one per frame (a frame is shown at most this late).
+            await asyncio.sleep(EVENT_BATCH_SECONDS)
 
     # The slot is given back once the response ends, whether the events ran out, the client
     # left, or it left before the first one (then the generator never ran its own cleanup).

@@ -15,18 +15,19 @@ from redis.commands.core import AsyncScript
 
 from api_schemas import Shot
 from api_schemas.service import (
-    Job, JobCreated, JobError, JobList, JobState, PieceSummary, ShotSummary, TimingSummary,
+    Job, JobCreated, JobError, JobList, JobLog, JobState, LogLine, PieceSummary, ShotSummary, TimingSummary,
 )
 from server.deps import JobId, Owner, Settings, Store, load_job
 from server.errors import ERRORS, ApiError
 from server.uploads import UploadError, read_limited, receive_multipart
 from server.validation import validate_shot
-from weft import jobstore
+from weft import jobstore, scheduler
 from weft.assets import shot_hash
 from weft.jobstore import ServiceSettings
 from weft.solver_setup import feature_summary, piece_body_collide, piece_self_collide
 
 IDEMPOTENCY = re.compile(r"^[A-Za-z0-9_.:-]{1,128}$")
+TAG = re.compile(r"^[A-Za-z0-9_.:=/-]{1,64}$")
 IDEMPOTENCY_TTL = 24 * 3600
 
 router = APIRouter()
@@ -40,6 +41,10 @@ def list_filter_script(request: Request) -> AsyncScript:
     return request.app.state.scripts["list_filter"]  # type: ignore[no-any-return]
 
 
+def delete_script(request: Request) -> AsyncScript:
+    return request.app.state.scripts["delete"]  # type: ignore[no-any-return]
+
+
 def retry_script(request: Request) -> AsyncScript:
     return request.app.state.scripts["retry"]  # type: ignore[no-any-return]
 
@@ -48,7 +53,7 @@ def job_url(request: Request, job_id: str) -> str:
     return str(request.url_for("get_job", job_id=job_id))
 
 
-def to_job(request: Request, h: dict[str, str]) -> Job:
+def to_job(request: Request, h: dict[str, str], admin: bool = False) -> Job:
     timing = None
     sim_frames = int(h.get("sim_frames", 0))
     if sim_frames:
@@ -62,6 +67,8 @@ def to_job(request: Request, h: dict[str, str]) -> Job:
                          kind=h.get("failure_kind") if h["state"] == "failed" else None)  # type: ignore[arg-type]
     return Job(
         id=h["id"], url=job_url(request, h["id"]), name=h["name"], state=h["state"],  # type: ignore[arg-type]
+        priority=int(h.get("priority", scheduler.DEFAULT_PRIORITY)), pool=h.get("pool", scheduler.DEFAULT_POOL),
+        tags=json.loads(h.get("tags", "[]")), owner=h.get("owner") if admin else None,
         frames_done=int(h.get("frames_done", 0)), frames_total=int(h["frames_total"]),
         frame_range=(int(h["frame_first"]), int(h["frame_last"])), vertices=int(h["vertices"]),
         worker=h.get("worker") or None, attempts=int(h.get("attempts", 0)),
@@ -122,7 +129,18 @@ async def submit_job(
     owner: Owner,
     settings: Settings,
     idempotency_key: Annotated[str | None, Header(description="Makes a resubmission return the first job.")] = None,
+    priority: Annotated[int, Query(ge=0, le=100, description="0-100, higher runs first.")] = scheduler.DEFAULT_PRIORITY,
+    pool: Annotated[str, Query(pattern=scheduler.POOL_NAME.pattern,
+                               description="Worker pool to run it (workers serve the pools of WEFT_POOLS).")]
+    = scheduler.DEFAULT_POOL,
+    tag: Annotated[list[str] | None, Query(max_length=16, description="Tags to find it by (repeat for several): "
+                                                                      "1-64 of letters, digits and _.:=/-")] = None,
 ) -> Response:
+    tags = sorted(set(tag or []))
+    bad = next((t for t in tags if not TAG.match(t)), None)
+    if bad is not None:
+        raise ApiError(422, f"tag {bad!r}: 1-64 characters of letters, digits and _.:=/-",
+                       [{"field": "tag", "problem": f"{bad!r} is not a tag"}])
     if idempotency_key is not None and not IDEMPOTENCY.match(idempotency_key):
         raise ApiError(400, "Idempotency-Key must be 1-128 characters of letters, digits, '_', '-', '.', ':'")
     content_type = request.headers.get("content-type", "")
@@ -162,10 +180,10 @@ async def submit_job(
             "id": job_id, "owner": owner, "name": shot.name, "state": "queued", "frames_done": 0,
             "frames_total": shot.frame_count, "frame_first": shot.frame_range[0],
             "frame_last": shot.frame_range[1], "vertices": vertices, "created": jobstore.now(), "attempts": 0,
-            "request_hash": request_hash,
+            "request_hash": request_hash, "priority": priority, "pool": pool, "tags": json.dumps(tags),
         }
         pipe = r.pipeline(transaction=True)
-        jobstore.queue_new_job(pipe, record)
+        jobstore.queue_new_job(pipe, record, tags)
         await pipe.execute()
     except UploadError as exc:
         shutil.rmtree(job_dir, ignore_errors=True)
@@ -178,7 +196,8 @@ async def submit_job(
     return JSONResponse(body_out.model_dump(), status_code=201, headers={"Location": url})
 
 
-@router.get("/v1/jobs", response_model=JobList, responses=ERRORS, summary="List your jobs, newest first")
+@router.get("/v1/jobs", response_model=JobList, responses=ERRORS,
+            summary="List your jobs (an admin key: every key's), newest first")
 async def list_jobs(
     request: Request,
     r: Store,
@@ -187,27 +206,63 @@ async def list_jobs(
     state: Annotated[JobState | None, Query(description="Only jobs in this state.")] = None,
     name: Annotated[str | None, Query(max_length=200, description="Only jobs whose name contains this text "
                                                                   "(case-insensitive).")] = None,
+    tag: Annotated[str | None, Query(max_length=64, description="Only jobs with this tag.")] = None,
+    created_after: Annotated[float | None, Query(ge=0, le=1e10, description="Submitted at or after (Unix time).")]
+    = None,
+    created_before: Annotated[float | None, Query(ge=0, le=1e10, description="Submitted at or before (Unix time).")]
+    = None,
     offset: Annotated[int, Query(ge=0, le=1_000_000_000)] = 0,
     limit: Annotated[int, Query(ge=1, le=500)] = 50,
 ) -> JobList:
-    """Pages come from the owner's index sorted by submission time. Filters run inside Redis
-    (LIST_FILTER_LUA: state from the state's set, name from the key's name hash, never the job
-    records), which answers the count and one page of ids; only the page's records are read."""
-    index = jobstore.owner_key(owner)
-    if state is None and not name:  # one page straight from the sorted index
+    """Pages come from the sorted index of submission times (the key's own, or every job's for
+    an admin key). Filters run inside Redis (LIST_FILTER_LUA: time range from the index, state
+    and tag from their sets, name from the name hash, never the job records), which answers the
+    count and one page of ids; only the page's records are read."""
+    admin = owner.admin
+    index = jobstore.ALL_JOBS if admin else jobstore.owner_key(owner)
+    if state is None and not name and not tag and created_after is None and created_before is None:
         total = await r.zcard(index)
         ids = await r.zrevrange(index, offset, offset + limit - 1)
     else:
         total, *ids = await list_filter(
-            keys=[index, jobstore.names_key(owner), jobstore.state_key(state or "queued")],
-            args=[(name or "").lower(), "1" if state else "0", offset, limit])
+            keys=[index, jobstore.ALL_NAMES if admin else jobstore.names_key(owner),
+                  jobstore.state_key(state or "queued"), jobstore.tag_key(None if admin else owner, tag or "-")],
+            args=[(name or "").lower(), "1" if state else "0", offset, limit, "1" if tag else "0",
+                  "-inf" if created_after is None else repr(created_after),
+                  "+inf" if created_before is None else repr(created_before)])
     pipe = r.pipeline(transaction=False)
     for job_id in ids:
         pipe.hgetall(jobstore.job_key(job_id))
     records = [h for h in await pipe.execute() if h]
     next_offset = offset + limit if offset + limit < total else None
-    return JobList(jobs=[to_job(request, h) for h in records], total=total, offset=offset, limit=limit,
+    return JobList(jobs=[to_job(request, h, admin) for h in records], total=total, offset=offset, limit=limit,
                    next_offset=next_offset)
+
+
+@router.delete("/v1/jobs/{job_id}", status_code=204, responses=ERRORS,
+               summary="Delete a finished job: its record, events, log, uploaded assets and cache")
+async def delete_job(job_id: JobId, r: Store, owner: Owner, settings: Settings,
+                     delete: Annotated[AsyncScript, Depends(delete_script)]) -> Response:
+    await load_job(r, owner, job_id)
+    result = await delete(keys=[jobstore.job_key(job_id)], args=[job_id])
+    if result not in jobstore.FINAL_STATES:
+        raise ApiError(409, f"job {job_id} is {result}: cancel it first; only finished jobs are deleted")
+    await anyio.to_thread.run_sync(lambda: shutil.rmtree(settings.job_dir(job_id), ignore_errors=True))
+    return Response(status_code=204)
+
+
+@router.get("/v1/jobs/{job_id}/log", response_model=JobLog, responses=ERRORS,
+            summary="The log lines workers wrote while running the job")
+async def get_job_log(
+    job_id: JobId, r: Store, owner: Owner,
+    since: Annotated[str | None, Query(pattern=r"^\d{1,19}-\d{1,19}$", description="Only lines after this id.")] = None,
+    limit: Annotated[int, Query(ge=1, le=10_000)] = 1000,
+) -> JobLog:
+    await load_job(r, owner, job_id)
+    entries = await r.xrange(jobstore.log_key(job_id), f"({since}" if since else "-", "+", count=limit)
+    return JobLog(job_id=job_id, lines=[
+        LogLine(id=entry_id, time=float(f["time"]), level=f["level"], worker=f["worker"], message=f["message"])
+        for entry_id, f in entries])
 
 
 @router.get("/v1/jobs/{job_id}/shot", response_model=ShotSummary, responses=ERRORS,
@@ -231,7 +286,7 @@ async def get_shot_summary(job_id: JobId, r: Store, owner: Owner, settings: Sett
 
 @router.get("/v1/jobs/{job_id}", response_model=Job, responses=ERRORS, summary="A job's state and progress")
 async def get_job(request: Request, job_id: JobId, r: Store, owner: Owner) -> Job:
-    return to_job(request, await load_job(r, owner, job_id))
+    return to_job(request, await load_job(r, owner, job_id), owner.admin)
 
 
 @router.post("/v1/jobs/{job_id}/cancel", response_model=Job, responses=ERRORS, summary="Cancel a job")
@@ -271,7 +326,7 @@ async def retry_job(
     payload = json.dumps({"frames_done": int(h.get("frames_done", 0)), "previous_state": h.get("state"),
                           "previous_error": h.get("error_reason") or None})
     result = await retry(
-        keys=[jobstore.job_key(job_id), jobstore.events_key(job_id), jobstore.QUEUE],
+        keys=[jobstore.job_key(job_id), jobstore.events_key(job_id)],
         args=[jobstore.now(), job_id, payload],
     )
     if result != "queued":

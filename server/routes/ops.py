@@ -37,7 +37,7 @@ async def list_workers(r: Store, owner: Owner, settings: Settings) -> WorkerList
             await r.hdel(jobstore.WORKERS, name)
             continue
         job_id = w.get("job")
-        if job_id and await r.hget(jobstore.job_key(job_id), "owner") != owner:
+        if job_id and not owner.admin and await r.hget(jobstore.job_key(job_id), "owner") != owner:
             job_id = None
         age = now - float(w["heartbeat"])
         out.append(WorkerInfo(
@@ -91,11 +91,13 @@ QUEUE_SAMPLER_LOCK = f"{jobstore.PREFIX}:queue:sampler"
 QUEUE_HISTORY_LENGTH = 4320  # six hours at the default five seconds
 
 
-async def sample_queue_forever(r: Any, settings: ServiceSettings) -> None:
-    """Every queue_sample_seconds, one sample of the queue into a capped Redis stream. Several
-    API processes share the work: whoever takes the lock for the period samples."""
+async def sample_queue_until(stop: asyncio.Event, r: Any, settings: ServiceSettings) -> None:
+    """Every queue_sample_seconds until ``stop`` is set, one sample of the queue into a capped
+    Redis stream. Several API processes share the work: whoever takes the lock for the period
+    samples. (A stop event rather than task cancellation: a cancellation that lands inside a
+    Redis call can surface as a connection error, which the loop must survive.)"""
     period = settings.queue_sample_seconds
-    while True:
+    while not stop.is_set():
         try:
             if await r.set(QUEUE_SAMPLER_LOCK, "1", nx=True, px=max(int(period * 900), 1)):
                 snap = await farm_snapshot(r, settings)
@@ -105,7 +107,10 @@ async def sample_queue_forever(r: Any, settings: ServiceSettings) -> None:
                 }, maxlen=QUEUE_HISTORY_LENGTH, approximate=True)
         except redis.RedisError:
             pass  # Redis restarting: the next period tries again
-        await asyncio.sleep(period)
+        try:
+            await asyncio.wait_for(stop.wait(), timeout=period)
+        except TimeoutError:
+            pass
 
 
 @router.get("/v1/queue", response_model=QueueStatus, responses=ERRORS,

@@ -1,12 +1,14 @@
-// The jobs table: live (refreshed every 2 s), filtered by name and state, paginated on the
-// server (GET /v1/jobs?name=&state=&offset=&limit=), with a selection to compare.
+// The jobs table: live (refreshed every 2 s), filtered by name, tag and state, paginated on
+// the server (GET /v1/jobs?name=&tag=&state=&offset=&limit=), with a selection to compare.
+// An admin key sees every key's jobs, with their owner.
 "use strict";
 
 (() => {
   const { api, el, seconds, number } = weft;
   const PAGE = 50;
   const params = new URLSearchParams(location.search);
-  const view = { name: params.get("name") ?? "", state: params.get("state") ?? "", offset: Number(params.get("offset")) || 0 };
+  const view = { name: params.get("name") ?? "", tag: params.get("tag") ?? "", state: params.get("state") ?? "",
+    offset: Number(params.get("offset")) || 0 };
   const selected = new Set();
   const tbody = document.querySelector("#jobs tbody");
   const message = document.getElementById("message");
@@ -14,6 +16,7 @@
   let timer = null;
 
   document.getElementById("filter-name").value = view.name;
+  document.getElementById("filter-tag").value = view.tag;
   document.getElementById("filter-state").value = view.state;
 
   function row(job) {
@@ -30,8 +33,11 @@
     const state = job.cancel_requested && job.state === "running" ? "cancelling" : job.state;
     return el("tr", { "data-job": job.id },
       el("td", {}, box),
-      el("td", {}, el("a", { href: `/ui/jobs/${job.id}` }, job.name), el("div", { class: "id" }, job.id)),
+      el("td", {}, el("a", { href: `/ui/jobs/${job.id}` }, job.name), el("div", { class: "id" }, job.id),
+        job.owner ? el("div", { class: "id" }, `owner ${job.owner}`) : null,
+        job.tags.length ? el("div", { class: "tags" }, job.tags.map((t) => el("span", { class: "tag" }, t))) : null),
       el("td", {}, el("span", { class: `state state-${job.state}` }, state)),
+      el("td", { class: "num" }, `${job.priority} · ${job.pool}`),
       el("td", {}, el("div", { class: "bar" }, fill), `${job.frames_done} / ${job.frames_total}`),
       el("td", { class: "num" }, rate ? number(rate, 2) : "–"),
       el("td", { class: "num" }, seconds(secondsPerFrame)),
@@ -45,14 +51,15 @@
     clearTimeout(timer);
     const query = new URLSearchParams({ offset: view.offset, limit: PAGE });
     if (view.name) query.set("name", view.name);
+    if (view.tag) query.set("tag", view.tag);
     if (view.state) query.set("state", view.state);
     const start = performance.now();
     try {
       const page = await api(`/v1/jobs?${query}`);
       tbody.replaceChildren(...page.jobs.map(row));
       if (!page.jobs.length) {
-        tbody.append(el("tr", {}, el("td", { colspan: 10, class: "muted" },
-          view.name || view.state ? "No job matches these filters." : "No jobs yet: submit a shot (weft submit SHOT.yaml).")));
+        tbody.append(el("tr", {}, el("td", { colspan: 11, class: "muted" },
+          view.name || view.state || view.tag ? "No job matches these filters." : "No jobs yet: submit a shot (weft submit SHOT.yaml).")));
       }
       const last = Math.min(page.offset + page.jobs.length, page.total);
       document.getElementById("count").textContent = `${number(page.total)} jobs`;
@@ -71,21 +78,24 @@
   function navigate() {
     const query = new URLSearchParams();
     if (view.name) query.set("name", view.name);
+    if (view.tag) query.set("tag", view.tag);
     if (view.state) query.set("state", view.state);
     if (view.offset) query.set("offset", view.offset);
     history.replaceState(null, "", `/ui/jobs${query.size ? `?${query}` : ""}`);
     load();
   }
 
-  let typing = null;
-  document.getElementById("filter-name").addEventListener("input", (event) => {
-    clearTimeout(typing);
-    typing = setTimeout(() => {
-      view.name = event.target.value.trim();
-      view.offset = 0;
-      navigate();
-    }, 250);
-  });
+  const typing = {};
+  for (const field of ["name", "tag"]) {
+    document.getElementById(`filter-${field}`).addEventListener("input", (event) => {
+      clearTimeout(typing[field]);
+      typing[field] = setTimeout(() => {
+        view[field] = event.target.value.trim();
+        view.offset = 0;
+        navigate();
+      }, 250);
+    });
+  }
   document.getElementById("filter-state").addEventListener("change", (event) => {
     view.state = event.target.value;
     view.offset = 0;

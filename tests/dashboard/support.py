@@ -52,8 +52,8 @@ def context_with_key(browser: Browser, key: str | None) -> BrowserContext:
     return context
 
 
-def submit(c: httpx.Client, shot: dict[str, Any]) -> str:
-    r = c.post("/v1/jobs", json=shot)
+def submit(c: httpx.Client, shot: dict[str, Any], **params: Any) -> str:
+    r = c.post("/v1/jobs", json=shot, params=params)
     assert r.status_code == 201, r.text
     return str(r.json()["id"])
 

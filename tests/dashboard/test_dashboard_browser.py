@@ -94,8 +94,9 @@ def test_job_page_follows_a_running_shot_and_shows_its_telemetry(
 def test_jobs_page_filters_and_compares(stack: Stack, alice: httpx.Client, alice_page: tuple[Page, PageLog]) -> None:
     page, log = alice_page
     # One scene (a sheet falling from horizontal, held at two corners) at 8 and at 2 substeps.
-    ids = [submit(alice, sheet_shot(name, 16, 16, 0.5, 0.5, plane="xz", pins=[0, 15], frames=6, substeps=n))
-           for name, n in (("compare-one", 8), ("compare-two", 2))]
+    ids = [submit(alice, sheet_shot(name, 16, 16, 0.5, 0.5, plane="xz", pins=[0, 15], frames=6, substeps=n),
+                  tag=tag, priority=priority)
+           for name, n, tag, priority in (("compare-one", 8, "take:a", 70), ("compare-two", 2, "take:b", 50))]
     with httpx.Client(base_url=stack.url, headers={"Authorization": f"Bearer {BOB}"}) as bob:
         secret = submit(bob, running_shot("bobs-secret", 3))
     for job_id in ids:
@@ -114,6 +115,11 @@ def test_jobs_page_filters_and_compares(stack: Stack, alice: httpx.Client, alice
     expect(table.locator(f'tr[data-job="{ids[1]}"]')).to_be_visible()
     states = table.locator(".state").all_inner_texts()
     assert states and set(states) == {"succeeded"}
+    page.fill("#filter-tag", "take:a")
+    expect(table.locator("tr")).to_have_count(1)
+    expect(table.locator("tr").first).to_contain_text("compare-one")
+    expect(table.locator("tr").first).to_contain_text("70 · default")
+    page.fill("#filter-tag", "")
     page.fill("#filter-name", "no-job-has-this-name")
     expect(table).to_contain_text("No job matches these filters.")
     page.fill("#filter-name", "compare-")

@@ -9,7 +9,7 @@ from pathlib import Path
 import redis
 from routes_support import MISSING_JOB, Api, assert_error, small_shot
 
-from weft import jobstore
+from weft import jobstore, scheduler
 from weft.jobstore import ServiceSettings
 
 JOB = f"/v1/jobs/{MISSING_JOB}"
@@ -24,7 +24,10 @@ def test_submit_queues_the_job(alice: Api, redis_db: redis.Redis, settings: Serv
     record = redis_db.hgetall(jobstore.job_key(job_id))
     assert record["state"] == "queued" and record["frames_total"] == "4" and record["vertices"] == "36"
     assert redis_db.sismember(jobstore.state_key("queued"), job_id)
-    assert [fields["job"] for _, fields in redis_db.xrange(jobstore.QUEUE)] == [job_id]
+    # Waiting in its pool's ready set for a worker's dispatch (weft.scheduler), with its priority.
+    ready = redis_db.zrange(scheduler.ready_key("default", record["owner"]), 0, -1, withscores=True)
+    assert [job_id for job_id, _ in ready] == [job_id] and ready[0][1] == scheduler.ready_score(50, float(record["created"]))
+    assert redis_db.llen(scheduler.doorbell_key("default")) == 1
     assert json.loads((settings.job_dir(job_id) / "shot.json").read_text())["name"] == "queued"
 
 

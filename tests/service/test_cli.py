@@ -79,6 +79,35 @@ def test_submit_wait_status_fetch_cancel(stack: Stack, tmp_path: Path) -> None:
     assert refused.returncode != 0 and "fps" in refused.stderr
 
 
+def test_a_batch_its_listing_logs_and_deletion(stack: Stack, tmp_path: Path) -> None:
+    env = {**os.environ, "WEFT_SERVER": stack.url, "WEFT_API_KEY": ALICE, "COLUMNS": "80"}  # a narrow terminal
+    shots = []
+    for k in range(2):
+        path = shot_files(tmp_path / f"shot{k}", frames=4)
+        shots.append(path)
+    done = weft("submit", *map(str, shots), "--batch", "seq010", "--tag", "show:coco", "--priority", "70", "--wait",
+                env=env)
+    assert done.returncode == 0, done.stderr + done.stdout
+    assert "batch seq010: 2 jobs" in done.stdout
+    listed = weft("jobs", "--tag", "batch:seq010", "--json", env=env)
+    page = json.loads(listed.stdout)
+    assert page["total"] == 2 and all(j["tags"] == ["batch:seq010", "show:coco"] and j["priority"] == 70
+                                      for j in page["jobs"])
+    ids = [j["id"] for j in page["jobs"]]
+    table = weft("jobs", "--tag", "batch:seq010", env=env).stdout
+    assert all(job_id in table for job_id in ids), "full ids, even on a narrow terminal"
+
+    log = weft("logs", ids[0], env=env)
+    assert log.returncode == 0 and f"job {ids[0]} started on worker" in log.stdout and "succeeded" in log.stdout
+    deleted = weft("delete", ids[0], env=env)
+    assert deleted.returncode == 0 and "deleted" in deleted.stdout
+    assert json.loads(weft("jobs", "--tag", "batch:seq010", "--json", env=env).stdout)["total"] == 1
+    again = weft("delete", ids[0], env=env)
+    assert again.returncode != 0 and "HTTP 404" in again.stderr
+    clash = weft("submit", *map(str, shots), "--idempotency-key", "k", env=env)
+    assert clash.returncode != 0 and "--idempotency-key is for one shot" in clash.stderr
+
+
 def test_weft_up_serves_and_stops_cleanly(tmp_path: Path) -> None:
     port = free_port()
     env = {**os.environ, "WEFT_HOME": str(tmp_path / "home"), "PYTHONUNBUFFERED": "1", "COLUMNS": "200"}

@@ -9,7 +9,7 @@ import h5py
 import pytest
 import redis
 
-from weft import jobstore
+from weft import jobstore, scheduler
 from weft.jobstore import ServiceSettings
 from workers.worker import Worker
 
@@ -94,8 +94,8 @@ def test_a_stopping_worker_hands_the_job_back(worker: Worker, queue_job: Callabl
     job = redis_db.hgetall(jobstore.job_key(job_id))
     assert (job["state"], job["worker"], job["attempts"], job["frames_done"]) == ("queued", "", "1", "1")
     assert in_state(redis_db, "queued") == {job_id} and in_state(redis_db, "running") == set()
-    entries = redis_db.xrange(jobstore.QUEUE)
-    assert [e[1]["job"] for e in entries] == [job_id, job_id], "a new entry queued"
+    owner = job["owner"]
+    assert redis_db.zrange(scheduler.ready_key("default", owner), 0, -1) == [job_id], "ready to run again"
     assert pending(redis_db) == 0, "the old entry acknowledged"
 
     successor = Worker(settings, name="w-next")

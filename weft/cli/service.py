@@ -1,4 +1,5 @@
-"""`weft up`, `weft submit`, `weft status`, `weft jobs`, `weft fetch`, `weft cancel`, `weft demo`:
+"""`weft up`, `weft submit`, `weft status`, `weft jobs`, `weft fetch`, `weft cancel`, `weft retry`,
+`weft delete`, `weft logs`, `weft demo`:
 the simulation service from the command line.
 
 Client commands find the server through ``--server`` or ``WEFT_SERVER``, else the stack that
@@ -142,8 +143,10 @@ def print_job(job: dict[str, Any]) -> None:
     out.print(table)
 
 
-def submit_shot(client: httpx.Client, shot_path: Path, idempotency_key: str | None = None) -> dict[str, Any]:
-    """Upload a shot file and the asset files it references (multipart)."""
+def submit_shot(client: httpx.Client, shot_path: Path, idempotency_key: str | None = None,
+                params: dict[str, Any] | None = None) -> dict[str, Any]:
+    """Upload a shot file and the asset files it references (multipart); params: the job's
+    priority, pool and tags (query parameters of POST /v1/jobs)."""
     import yaml
 
     from weft.assets import asset_paths
@@ -162,7 +165,7 @@ def submit_shot(client: httpx.Client, shot_path: Path, idempotency_key: str | No
             handles.append(open(path, "rb"))  # noqa: SIM115 - closed below
             files.append(("assets", (relative, handles[-1], "application/octet-stream")))
         headers = {"Idempotency-Key": idempotency_key} if idempotency_key else {}
-        return checked(client.post("/v1/jobs", files=files, headers=headers))  # type: ignore[no-any-return]
+        return checked(client.post("/v1/jobs", files=files, headers=headers, params=params))  # type: ignore[no-any-return]
     finally:
         for h in handles:
             h.close()
@@ -170,23 +173,45 @@ def submit_shot(client: httpx.Client, shot_path: Path, idempotency_key: str | No
 
 @app.command()
 def submit(
-    shot: Annotated[Path, typer.Argument(help="Shot file (.json/.yaml); its assets are uploaded with it")],
-    wait: Annotated[bool, typer.Option("--wait", help="Follow the job to the end with a progress bar")] = False,
-    idempotency_key: Annotated[str | None, typer.Option("--idempotency-key", help="Makes a resubmit safe")] = None,
+    shots: Annotated[list[Path], typer.Argument(help="Shot files (.json/.yaml); their assets are uploaded with them")],
+    wait: Annotated[bool, typer.Option("--wait", help="Follow the jobs to the end with a progress bar")] = False,
+    priority: Annotated[int, typer.Option("--priority", min=0, max=100, help="0-100, higher runs first")] = 50,
+    pool: Annotated[str, typer.Option("--pool", help="Worker pool to run on (workers serve WEFT_POOLS)")] = "default",
+    tags: Annotated[list[str] | None, typer.Option("--tag", help="Tag to find the jobs by (repeatable), e.g. show:coco")]
+    = None,
+    batch: Annotated[str | None, typer.Option("--batch", help="Batch name: tags every job batch:NAME (several shots "
+                                                              "get a generated one)")] = None,
+    idempotency_key: Annotated[str | None, typer.Option("--idempotency-key", help="Makes a resubmit safe (one shot)")]
+    = None,
     server: ServerOption = None,
 ) -> None:
-    """Submit a shot to the simulation service."""
+    """Submit one or more shots to the simulation service (several: one batch)."""
+    import uuid
+
+    if idempotency_key and len(shots) > 1:
+        fail("--idempotency-key is for one shot; a batch gets one key per shot from --batch")
+    if batch is None and len(shots) > 1:
+        batch = uuid.uuid4().hex[:8]
+    all_tags = sorted(set(tags or []) | ({f"batch:{batch}"} if batch else set()))
+    params = {"priority": priority, "pool": pool, "tag": all_tags}
+    ids: list[str] = []
     with api(server) as client:
-        created = submit_shot(client, shot, idempotency_key)
-        job_id = created["id"]
-        out.print(f"job {job_id} {'(existing) ' if created.get('duplicate') else ''}{created['url']}")
+        for number, shot in enumerate(shots):
+            key = idempotency_key or (f"batch-{batch}-{number}" if batch else None)
+            created = submit_shot(client, shot, key, params)
+            ids.append(created["id"])
+            out.print(f"job {created['id']} {'(existing) ' if created.get('duplicate') else ''}{created['url']}")
+        if batch:
+            out.print(f"batch {batch}: {len(ids)} jobs (weft jobs --tag batch:{batch})")
         if not wait:
             return
-        job = checked(client.get(f"/v1/jobs/{job_id}"))
-        end = follow_job(client, job_id, job["frames_total"], job["name"])
-        job = checked(client.get(f"/v1/jobs/{job_id}"))
-        print_job(job)
-        if end["state"] != "succeeded":
+        failed = False
+        for job_id in ids:
+            job = checked(client.get(f"/v1/jobs/{job_id}"))
+            end = follow_job(client, job_id, job["frames_total"], job["name"])
+            print_job(checked(client.get(f"/v1/jobs/{job_id}")))
+            failed |= end["state"] != "succeeded"
+        if failed:
             raise typer.Exit(1)
 
 
@@ -208,19 +233,51 @@ def status(
 @app.command()
 def jobs(
     state: Annotated[str | None, typer.Option("--state", help="queued, running, succeeded, failed, cancelled")] = None,
+    name: Annotated[str | None, typer.Option("--name", help="Name contains this text")] = None,
+    tag: Annotated[str | None, typer.Option("--tag", help="Has this tag (a batch: batch:NAME)")] = None,
     limit: Annotated[int, typer.Option("--limit", min=1, max=500)] = 20,
+    offset: Annotated[int, typer.Option("--offset", min=0)] = 0,
+    as_json: Annotated[bool, typer.Option("--json", help="The API's JSON page (full records)")] = False,
     server: ServerOption = None,
 ) -> None:
-    """List your jobs, newest first."""
-    params: dict[str, Any] = {"limit": limit}
-    if state:
-        params["state"] = state
+    """List your jobs (an admin key: everyone's), newest first."""
+    params: dict[str, Any] = {"limit": limit, "offset": offset}
+    for key, value in (("state", state), ("name", name), ("tag", tag)):
+        if value:
+            params[key] = value
     with api(server) as client:
         listing = checked(client.get("/v1/jobs", params=params))
-    table = Table("id", "shot", "state", "frames", "worker")
+    if as_json:
+        out.print_json(json.dumps(listing))
+        return
+    table = Table(title=f"{listing['total']} jobs", title_justify="left")
+    table.add_column("id", no_wrap=True, min_width=32)
+    for column in ("shot", "state", "frames", "priority", "pool", "worker", "tags"):
+        table.add_column(column)
     for job in listing["jobs"]:
-        table.add_row(job["id"], job["name"], job["state"], f"{job['frames_done']}/{job['frames_total']}", job["worker"] or "-")
+        table.add_row(job["id"], job["name"], job["state"], f"{job['frames_done']}/{job['frames_total']}",
+                      str(job["priority"]), job["pool"], job["worker"] or "-", " ".join(job["tags"]))
     out.print(table)
+
+
+@app.command()
+def delete(job_id: Annotated[str, typer.Argument(help="Job id")], server: ServerOption = None) -> None:
+    """Delete a finished job: its record, events, log, assets and cache."""
+    with api(server) as client:
+        response = client.delete(f"/v1/jobs/{job_id}")
+        if response.status_code != 204:
+            checked(response)
+    out.print(f"job {job_id} deleted")
+
+
+@app.command()
+def logs(job_id: Annotated[str, typer.Argument(help="Job id")], server: ServerOption = None) -> None:
+    """The log lines workers wrote while running the job."""
+    with api(server) as client:
+        lines = checked(client.get(f"/v1/jobs/{job_id}/log", params={"limit": 10_000}))["lines"]
+    for line in lines:
+        stamp = time.strftime("%Y-%m-%d %H:%M:%S", time.localtime(line["time"]))
+        typer.echo(f"{stamp} {line['worker']} {line['level']}: {line['message']}")  # plain lines, for grep
 
 
 @app.command()
