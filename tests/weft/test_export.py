@@ -1,0 +1,126 @@
+"""weft.export and `weft export`: a cache as USD (read back with pxr) and as an OBJ sequence."""
+
+from __future__ import annotations
+
+import copy
+import subprocess
+import sys
+from pathlib import Path
+from typing import Any
+
+import h5py
+import numpy as np
+import pytest
+from pxr import Usd, UsdGeom
+
+from scenes.builders import sheet_shot
+from weft.export import ExportError, export_obj_sequence, export_usd, up_axis
+from weft.runner import ShotRunner
+from weft.shot import parse_shot
+from weft.solver_setup import resolve_scene
+
+WEFT = str(Path(sys.executable).with_name("weft"))
+
+
+def two_piece_shot(gravity: tuple[float, float, float] = (0.0, -9.81, 0.0)) -> dict[str, Any]:
+    shot = sheet_shot("export", 5, 4, 0.4, 0.3, plane="xz", pins=[0, 4], frames=4, gravity=gravity)
+    second = copy.deepcopy(shot["cloth"][0])
+    second["name"] = "skirt.back"
+    second["mesh"]["vertices"] = [[x, y - 0.2, z + 0.5] for x, y, z in second["mesh"]["vertices"]]
+    shot["cloth"].append(second)
+    shot["features"] = {"self_collision": False}
+    return shot
+
+
+@pytest.fixture(scope="module")
+def cache(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    path = tmp_path_factory.mktemp("export") / "cache.h5"
+    ShotRunner(resolve_scene(parse_shot(two_piece_shot()), path.parent), path).run()
+    return path
+
+
+def test_usd_holds_every_frame_of_every_piece_exactly(cache: Path, tmp_path: Path) -> None:
+    summary = export_usd(cache, tmp_path / "shot.usd")
+    assert summary.frames == (1, 4) and summary.frame_count == 4 and summary.pieces == ("sheet", "skirt.back")
+    stage = Usd.Stage.Open(str(tmp_path / "shot.usd"))
+    assert stage.GetTimeCodesPerSecond() == 24.0 and stage.GetFramesPerSecond() == 24.0
+    assert (stage.GetStartTimeCode(), stage.GetEndTimeCode()) == (1.0, 4.0)
+    assert UsdGeom.GetStageUpAxis(stage) == UsdGeom.Tokens.y and UsdGeom.GetStageMetersPerUnit(stage) == 1.0
+    assert stage.GetDefaultPrim().GetPath() == "/weft"
+    assert stage.GetRootLayer().customLayerData["weft:shot"] == "export"
+    with h5py.File(cache, "r") as f:
+        positions, velocities = f["frames/positions"][()], f["frames/velocities"][()]
+        pieces = {name: (int(g.attrs["vertex_offset"]), int(g.attrs["vertex_count"]), g["faces"][()])
+                  for name, g in f["cloth/pieces"].items()}
+    for name, prim_name in (("sheet", "sheet"), ("skirt.back", "skirt_back")):
+        mesh = UsdGeom.Mesh(stage.GetPrimAtPath(f"/weft/cloth/{prim_name}"))
+        offset, count, faces = pieces[name]
+        assert mesh.GetPrim().GetCustomDataByKey("weft:piece") == name
+        assert list(mesh.GetFaceVertexCountsAttr().Get()) == [3] * len(faces)
+        assert list(mesh.GetFaceVertexIndicesAttr().Get()) == faces.ravel().tolist()
+        assert mesh.GetPointsAttr().GetTimeSamples() == [1.0, 2.0, 3.0, 4.0]
+        for row, frame in enumerate((1.0, 2.0, 3.0, 4.0)):
+            points = np.array(mesh.GetPointsAttr().Get(frame), dtype=np.float32)
+            assert np.array_equal(points, positions[row, offset : offset + count])
+            speeds = np.array(mesh.GetVelocitiesAttr().Get(frame), dtype=np.float32)
+            assert np.array_equal(speeds, velocities[row, offset : offset + count])
+    assert not np.array_equal(positions[0], positions[-1])  # the cloth moved: the samples differ
+
+
+def test_usd_frame_selection_and_no_velocities(cache: Path, tmp_path: Path) -> None:
+    summary = export_usd(cache, tmp_path / "part.usda", velocities=False, frames=range(2, 4))
+    assert summary.frames == (2, 3)
+    stage = Usd.Stage.Open(str(tmp_path / "part.usda"))
+    mesh = UsdGeom.Mesh(stage.GetPrimAtPath("/weft/cloth/sheet"))
+    assert mesh.GetPointsAttr().GetTimeSamples() == [2.0, 3.0] and not mesh.GetVelocitiesAttr().HasValue()
+
+
+def test_up_axis_follows_gravity() -> None:
+    assert up_axis((0.0, -9.81, 0.0)) == "Y" and up_axis((0.0, 0.0, -9.81)) == "Z" and up_axis((0.0, 0.0, 0.0)) == "Y"
+
+
+def test_obj_sequence_matches_the_cache(cache: Path, tmp_path: Path) -> None:
+    summary = export_obj_sequence(cache, tmp_path / "objs")
+    files = sorted((tmp_path / "objs").glob("*.obj"))
+    assert [f.name for f in files] == [f"export_{n:04d}.obj" for n in (1, 2, 3, 4)] and summary.frame_count == 4
+    assert not list((tmp_path / "objs").glob(".*"))  # no partial files left
+    with h5py.File(cache, "r") as f:
+        positions, faces = f["frames/positions"][()], f["cloth/faces"][()]
+    for row, path in enumerate(files):
+        lines = path.read_text().splitlines()
+        vertices = np.array([[float(v) for v in line.split()[1:]] for line in lines if line.startswith("v ")])
+        triangles = np.array([[int(v) - 1 for v in line.split()[1:]] for line in lines if line.startswith("f ")])
+        assert np.allclose(vertices, positions[row], rtol=0, atol=1e-6)
+        assert np.array_equal(triangles, faces)
+        assert [line for line in lines if line.startswith("g ")] == ["g sheet", "g skirt.back"]
+
+
+def test_bad_exports_name_the_problem(cache: Path, tmp_path: Path) -> None:
+    not_a_cache = tmp_path / "other.h5"
+    with h5py.File(not_a_cache, "w") as f:
+        f["x"] = 1
+    with pytest.raises(ExportError, match="is not a weft cache"):
+        export_usd(not_a_cache, tmp_path / "a.usd")
+    with pytest.raises(ExportError, match="frame 9 is not in .*: it has frames 1-4"):
+        export_usd(cache, tmp_path / "a.usd", frames=range(2, 10))
+    with pytest.raises(ExportError, match="folder .*missing does not exist"):
+        export_obj_sequence(cache, tmp_path / "missing" / "objs")
+    with pytest.raises(ExportError, match="ends in .usd"):
+        export_usd(cache, tmp_path / "a.abc")
+    with pytest.raises(ExportError, match="no such file"):
+        export_usd(tmp_path / "nope.h5", tmp_path / "a.usd")
+
+
+def test_cli_export(cache: Path, tmp_path: Path) -> None:
+    done = subprocess.run([WEFT, "export", str(cache), "--usd", str(tmp_path / "cli.usdc"), "--frames", "1:2"],
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert "frames 1-2 (2)" in done.stdout and (tmp_path / "cli.usdc").is_file()
+    objs = subprocess.run([WEFT, "export", str(cache), "--obj-sequence", str(tmp_path / "seq")],
+                          capture_output=True, text=True, timeout=120)
+    assert objs.returncode == 0 and len(list((tmp_path / "seq").glob("*.obj"))) == 4
+    for args, message in ((["--usd", "x.usd", "--obj-sequence", "d"], "give one of"),
+                          (["--usd", str(tmp_path / "x.usd"), "--frames", "3-1"], "expected FIRST:LAST"),
+                          (["--usd", str(tmp_path / "x.usd"), "--frames", "0:2"], "frame 0 is not in")):
+        bad = subprocess.run([WEFT, "export", str(cache), *args], capture_output=True, text=True, timeout=120)
+        assert bad.returncode == 2 and message in bad.stderr, (args, bad.stderr)
