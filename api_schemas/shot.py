@@ -84,19 +84,23 @@ class RestShape(StrictModel):
     - ``positions``: per-vertex rest positions (a 3D rest shape; its dihedral angles are the
       rest bending angles).
     - ``uv``: per-corner (u, v) coordinates in metres, shape (faces, 3, 2), e.g. sewing-pattern
-      panels; u is the warp direction, v the weft. The rest shape is flat.
+      panels; u is the warp direction, v the weft. The rest shape is flat. Without
+      ``face_uvs``, the mesh's own OBJ ``vt`` coordinates, times ``uv_scale`` (metres per UV
+      unit: 1 when the pattern's UVs are in metres, 0.01 in centimetres).
     """
 
     kind: Literal["initial", "positions", "uv"] = "initial"
     positions: list[Vec3] | ArrayAsset | None = None
     face_uvs: list[tuple[Vec2, Vec2, Vec2]] | ArrayAsset | None = None
+    uv_scale: PositiveFloat = Field(1.0, le=1e6, description="Metres per UV unit of the OBJ's vt (kind 'uv' without "
+                                                             "face_uvs).")
 
     @model_validator(mode="after")
     def _data_matches_kind(self) -> RestShape:
         if self.kind == "positions" and self.positions is None:
             raise ValueError("kind 'positions' needs 'positions'")
-        if self.kind == "uv" and self.face_uvs is None:
-            raise ValueError("kind 'uv' needs 'face_uvs'")
+        if self.uv_scale != 1.0 and (self.kind != "uv" or self.face_uvs is not None):
+            raise ValueError("'uv_scale' scales an OBJ's vt: only with kind 'uv' and no 'face_uvs'")
         if self.kind != "positions" and self.positions is not None:
             raise ValueError(f"'positions' is only used with kind 'positions', not '{self.kind}'")
         if self.kind != "uv" and self.face_uvs is not None:
@@ -144,8 +148,14 @@ class Body(StrictModel):
     name: Name
     mesh: MeshSource
     animation: ArrayAsset | None = Field(
-        default=None, description="Per-frame vertex positions, shape (frames, vertices, 3), one per shot frame."
-    )
+        default=None, description="Vertex positions per sample, shape (samples, vertices, 3). By default one sample "
+        "per shot frame, sample 0 at the first frame; animation_fps and frame_offset retime it.")
+    animation_fps: PositiveFloat | None = Field(
+        default=None, le=100_000.0, description="Samples per second of the animation (default: the shot's fps). "
+        "Between samples the body moves linearly; sub-frame samples are read at the frame times.")
+    frame_offset: float = Field(
+        0.0, ge=-1e6, le=1e6, description="Shot frames from the first frame of frame_range to the animation's sample "
+        "0 (negative: the animation started before the shot).")
     collide: bool = True
     group: Name | None = Field(
         default=None,

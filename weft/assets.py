@@ -157,6 +157,52 @@ def load_mesh(base_dir: Path, mesh: MeshSource, field_path: str) -> tuple[np.nda
     return vertices, faces
 
 
+def load_obj_corner_uvs(base_dir: Path, mesh: MeshSource, faces: np.ndarray, field_path: str) -> np.ndarray:
+    """The (u, v) of each triangle corner from an OBJ file's ``vt`` records and its faces'
+    ``v/vt`` indices, shape (F, 3, 2), in the file's units. The faces must be the file's own
+    triangles in order (checked against ``faces``, the mesh as loaded), each corner with a vt."""
+    if mesh.path is None or Path(mesh.path).suffix.lower() != ".obj":
+        raise ShotError(field_path, "a 'uv' rest shape without face_uvs reads the mesh's OBJ vt coordinates: "
+                                    "the mesh must be an .obj file (or give face_uvs)")
+    path = _resolve_asset(base_dir, mesh.path, field_path, MESH_SUFFIXES)
+    texture: list[tuple[float, float]] = []
+    corners: list[list[int]] = []
+    positions: list[list[int]] = []
+    with open(path, encoding="utf-8", errors="replace") as obj:
+        for number, line in enumerate(obj, 1):
+            fields = line.split()
+            if not fields:
+                continue
+            if fields[0] == "vt":
+                try:
+                    texture.append((float(fields[1]), float(fields[2])))
+                except (IndexError, ValueError):
+                    raise ShotError(field_path, f"{mesh.path} line {number}: a vt record needs two numbers") from None
+            elif fields[0] == "f":
+                if len(fields) != 4:
+                    raise ShotError(field_path, f"{mesh.path} line {number}: a face with {len(fields) - 1} corners; "
+                                                "the vt rest shape needs a triangulated OBJ")
+                refs = [corner.split("/") for corner in fields[1:]]
+                if any(len(r) < 2 or not r[1] for r in refs):
+                    raise ShotError(field_path, f"{mesh.path} line {number}: a face corner without a vt index")
+                try:
+                    positions.append([int(r[0]) for r in refs])
+                    corners.append([int(r[1]) for r in refs])
+                except ValueError:
+                    raise ShotError(field_path, f"{mesh.path} line {number}: malformed face indices") from None
+    if not texture:
+        raise ShotError(field_path, f"{mesh.path} has no vt records to take the rest shape from")
+    def absolute(index: np.ndarray, count: int) -> np.ndarray:  # OBJ: 1-based, negative from the end
+        return np.where(index < 0, count + index, index - 1)
+    vt = absolute(np.asarray(corners, dtype=np.int64), len(texture))
+    if vt.min() < 0 or vt.max() >= len(texture):
+        raise ShotError(field_path, f"{mesh.path}: a face refers to a vt that does not exist ({len(texture)} vt)")
+    v = np.asarray(positions, dtype=np.int64)
+    if v.shape != faces.shape or not np.array_equal(absolute(v, int(faces.max()) + 1), faces):
+        raise ShotError(field_path, f"{mesh.path}: its faces do not match the mesh as loaded")
+    return np.asarray(texture, dtype=np.float64)[vt]
+
+
 def check_finite(array: np.ndarray, field_path: str) -> None:
     bad = ~np.isfinite(array)
     if bad.any():

@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 
 from api_schemas import ArrayAsset, Shot
-from weft.assets import check_finite, load_array, load_mesh, shot_hash
+from weft.assets import check_finite, load_array, load_mesh, load_obj_corner_uvs, shot_hash
 from weft.shot import ShotError
 
 
@@ -185,7 +185,10 @@ def resolve_scene(shot: Shot, base_dir: str | Path) -> Scene:
                 f"{len(unused)} vertices belong to no face (first: {unused[:5].tolist()}); remove them",
             )
         if piece.rest.kind == "uv":
-            uv = _rest_array(base_dir, piece.rest.face_uvs, where + ".rest.face_uvs")
+            if piece.rest.face_uvs is None:  # the OBJ's own vt, scaled to metres
+                uv = load_obj_corner_uvs(base_dir, piece.mesh, piece_faces, where + ".rest") * piece.rest.uv_scale
+            else:
+                uv = _rest_array(base_dir, piece.rest.face_uvs, where + ".rest.face_uvs")
             if uv.shape not in {(len(piece_faces), 3, 2), (len(piece_faces), 6)}:
                 raise ShotError(
                     where + ".rest.face_uvs", f"shape {uv.shape} does not match ({len(piece_faces)}, 3, 2)"
@@ -193,7 +196,7 @@ def resolve_scene(shot: Shot, base_dir: str | Path) -> Scene:
             check_finite(uv.reshape(len(piece_faces), 6), where + ".rest.face_uvs")
             piece_uv = uv.reshape(len(piece_faces), 6)
             piece_rest = np.full((len(vertices), 3), np.nan)
-            uv_field = where + ".rest.face_uvs"
+            uv_field = where + (".rest.face_uvs" if piece.rest.face_uvs is not None else ".rest: OBJ vt of face")
         else:
             if piece.rest.kind == "positions":
                 piece_rest = _rest_array(base_dir, piece.rest.positions, where + ".rest.positions")
@@ -285,13 +288,33 @@ def _load_body(base_dir: Path, shot: Shot, i: int) -> BodyArrays:
                 where + ".animation",
                 f"has {frames.shape[1]} vertices per frame but the body mesh has {len(vertices)}",
             )
-        if frames.shape[0] != count:
-            raise ShotError(
-                where + ".animation",
-                f"has {frames.shape[0]} frames but frame_range {list(shot.frame_range)} has {count}",
-            )
         check_finite(frames, where + ".animation")
+        frames = retime_animation(frames, body.animation_fps or shot.fps, body.frame_offset, shot, where)
     return BodyArrays(body.name, faces.astype(np.int32), frames)
+
+
+def retime_animation(samples: np.ndarray, sample_fps: float, frame_offset: float, shot: Shot,
+                     where: str) -> np.ndarray:
+    """One pose per shot frame from an animation's samples: shot frame index i plays sample
+    (i - frame_offset) * sample_fps / shot.fps, linearly interpolated between the two nearest
+    samples. Every shot frame must fall within the samples (no silent hold of the first or last
+    pose)."""
+    count = shot.frame_count
+    at = (np.arange(count) - frame_offset) * (sample_fps / shot.fps)
+    last = len(samples) - 1
+    if at[0] < -1e-9 or at[-1] > last + 1e-9:
+        first_frame = shot.frame_range[0] + frame_offset
+        last_frame = first_frame + last * shot.fps / sample_fps
+        raise ShotError(where + ".animation", f"{len(samples)} samples at {sample_fps:g} per second cover shot frames "
+                        f"{first_frame:g}-{last_frame:g} (frame_offset {frame_offset:g}), but frame_range is "
+                        f"{list(shot.frame_range)}: give samples for every frame, or change frame_offset/animation_fps")
+    at = np.clip(at, 0.0, last)
+    below = np.minimum(np.floor(at).astype(np.int64), max(last - 1, 0))
+    weight = (at - below)[:, None, None]
+    above = np.minimum(below + 1, last)
+    if np.all(weight == 0.0) and np.array_equal(below, np.arange(count)):
+        return samples[:count]  # one sample per frame, from the first: the samples themselves
+    return (1.0 - weight) * samples[below] + weight * samples[above]
 
 
 def build_setup(scene: Scene, threads: int = 1, linear_system: str | None = None) -> Any:

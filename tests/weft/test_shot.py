@@ -148,7 +148,7 @@ def body_doc(tmp_path: Path, frames: int, vertices: int) -> dict:
 
 
 def test_animation_frame_count_mismatch(tmp_path) -> None:
-    expect(body_doc(tmp_path, frames=3, vertices=4), tmp_path, "bodies[0].animation", "has 3 frames")
+    expect(body_doc(tmp_path, frames=3, vertices=4), tmp_path, "bodies[0].animation", "3 samples at 24 per second cover shot frames 1-3")
 
 
 def test_animation_vertex_count_mismatch(tmp_path) -> None:
