@@ -124,11 +124,24 @@ class Material(StrictModel):
 
 
 class Pin(StrictModel):
-    """Vertices held in place: fixed at their initial positions, or attached to the closest
-    point of an animated body (keeping their offset in that triangle's frame)."""
+    """Vertices held in place: fixed at their initial positions, moved along a prescribed path
+    (``animation``), or attached to the closest point of an animated body (keeping their offset
+    in that triangle's frame); until ``release``, if given, then free."""
 
     vertices: list[VertexIndex] = Field(min_length=1)
     body: Name | None = Field(default=None, description="Name of the body to follow; none: fixed in space.")
+    release: NonNegativeFloat | None = Field(
+        default=None, le=1e7, description="Seconds after the shot's first frame at which the pin lets go (at the first "
+        "frame that starts at or after it); none: held for the whole shot.")
+    animation: list[list[Vec3]] | ArrayAsset | None = Field(
+        default=None, description="Positions of the pinned vertices per shot frame, shape (frames, vertices, 3); "
+        "the pin moves linearly between frames. Only for a pin fixed in space (no body).")
+
+    @model_validator(mode="after")
+    def _animation_without_body(self) -> Pin:
+        if self.animation is not None and self.body is not None:
+            raise ValueError("a pin follows either a body or its own animation, not both")
+        return self
 
 
 class ClothPiece(StrictModel):

@@ -1,8 +1,8 @@
 """The frame loop: the one place where a shot's frame index becomes a call into the solver.
 
-Frame 0 of the range is the initial state. Frame ``index`` >= 1 moves the bodies from their
-keyframe ``index - 1`` to ``index`` and takes ``shot.substeps`` implicit steps of the frame's
-duration. The runner (cache, resume), the tests and the benchmarks all step through here, so
+Frame 0 of the range is the initial state. Frame ``index`` >= 1 releases the pins whose time
+has come (at the frame's start), moves the bodies and the pins with paths from their keyframe
+``index - 1`` to ``index`` and takes ``shot.substeps`` implicit steps of the frame's duration. The runner (cache, resume), the tests and the benchmarks all step through here, so
 they simulate exactly the same thing; ``telemetry_row`` turns the solver's per-frame record
 into the schema's ``FrameTelemetry``, field by field.
 """
@@ -45,6 +45,14 @@ def advance(sim: Any, scene: Scene, index: int) -> Any:
     dt = 1.0 / shot.fps
     for b, body in enumerate(scene.bodies):
         sim.set_body_keyframes(b, body.frames[index - 1], body.frames[index])
+    frame_start_time = (index - 1) * dt
+    released = [vertices for time, vertices in scene.pin_releases if time <= frame_start_time + 1e-9 * dt]
+    if released:  # idempotent: a resumed run releases what the first run had released
+        sim.release_pins(np.concatenate(released).tolist())
+    let_go = set() if not released else set(np.concatenate(released).tolist())
+    for vertices, path in scene.pin_paths:
+        if not let_go.intersection(vertices.tolist()):
+            sim.set_pin_targets(vertices.tolist(), path[index - 1], path[index])
     try:
         t = sim.advance_frame((index - 1) * dt, dt, shot.substeps)
     except _solver.SolverDivergence as exc:

@@ -52,6 +52,10 @@ class Scene:
     body_pin_vertices: np.ndarray
     body_pin_bodies: np.ndarray
     bodies: list[BodyArrays] = field(default_factory=list)
+    # Pins that let go: (time in seconds after the first frame, vertices), and prescribed pin
+    # paths: (vertices, positions per frame (frames, vertices, 3)).
+    pin_releases: list[tuple[float, np.ndarray]] = field(default_factory=list)
+    pin_paths: list[tuple[np.ndarray, np.ndarray]] = field(default_factory=list)
 
     @property
     def vertex_count(self) -> int:
@@ -129,6 +133,8 @@ def feature_summary(shot: Shot) -> dict[str, str]:
     contact = any(collide) and bodies > 0
     enabled = contact or any(self_collide)
     pins = sum(len(pin.vertices) for piece in shot.cloth for pin in piece.pins)
+    released = sum(len(pin.vertices) for piece in shot.cloth for pin in piece.pins if pin.release is not None)
+    moving = sum(len(pin.vertices) for piece in shot.cloth for pin in piece.pins if pin.animation is not None)
 
     def of_pieces(flags: list[bool]) -> str:
         return f"on ({sum(flags)} of {len(flags)} pieces)" if any(flags) else "off"
@@ -145,7 +151,8 @@ def feature_summary(shot: Shot) -> dict[str, str]:
         "self-collision": of_pieces(self_collide),
         "CCD": "on" if enabled and (features.ccd if features.ccd is not None else True) else "off",
         "GIA": gia,
-        "pins": f"{pins} vertices" if pins else "none",
+        "pins": (f"{pins} vertices" + (f", {moving} on paths" if moving else "")
+                 + (f", {released} released during the shot" if released else "")) if pins else "none",
         "wind": "on" if wind is not None and any(wind.velocity) else "off",
         "air drag": f"{shot.environment.air_drag:g} kg/(m^2 s)" if shot.environment.air_drag else "off",
     }
@@ -171,6 +178,8 @@ def resolve_scene(shot: Shot, base_dir: str | Path) -> Scene:
     }
     pieces: list[PieceArrays] = []
     fixed_pins: list[int] = []
+    pin_releases: list[tuple[float, np.ndarray]] = []
+    pin_paths: list[tuple[np.ndarray, np.ndarray]] = []
     body_pin_vertices: list[int] = []
     body_pin_bodies: list[int] = []
     body_index = {b.name: i for i, b in enumerate(shot.bodies)}
@@ -222,6 +231,25 @@ def resolve_scene(shot: Shot, base_dir: str | Path) -> Scene:
                     f"{where}.pins[{j}].vertices[{k}]",
                     f"vertex {indices[k]} out of range (mesh has {len(vertices)} vertices)",
                 )
+            pin_field = f"{where}.pins[{j}]"
+            if pin.release is not None:
+                duration = (shot.frame_range[1] - shot.frame_range[0]) / shot.fps
+                if pin.release > duration:
+                    raise ShotError(pin_field + ".release", f"{pin.release:g} s is after the shot's last frame "
+                                    f"({duration:g} s after its first); leave it out to hold the pin")
+                pin_releases.append((float(pin.release), indices + vertex_offset))
+            if pin.animation is not None:
+                path = _rest_array(base_dir, pin.animation, pin_field + ".animation")
+                expected = (shot.frame_count, len(indices), 3)
+                if path.shape != expected:
+                    raise ShotError(pin_field + ".animation", f"shape {path.shape} is not {expected} "
+                                    "(one position per shot frame for each pinned vertex)")
+                check_finite(path, pin_field + ".animation")
+                offset = np.abs(path[0] - vertices[indices]).max()
+                if offset > 1e-6:
+                    raise ShotError(pin_field + ".animation[0]", f"the first frame is {offset:.3g} m from where the "
+                                    "pinned vertices start: a pin path starts at its vertices")
+                pin_paths.append((indices + vertex_offset, path))
             if pin.body is None:
                 fixed_pins.extend((indices + vertex_offset).tolist())
             else:
@@ -262,6 +290,8 @@ def resolve_scene(shot: Shot, base_dir: str | Path) -> Scene:
         fixed_pins=np.asarray(fixed_pins, dtype=np.int32),
         body_pin_vertices=np.asarray(body_pin_vertices, dtype=np.int32),
         body_pin_bodies=np.asarray(body_pin_bodies, dtype=np.int32),
+        pin_releases=pin_releases,
+        pin_paths=pin_paths,
         bodies=bodies,
     )
 

@@ -95,6 +95,9 @@ PYBIND11_MODULE(_solver, m) {
            py::arg("substeps"), py::call_guard<py::gil_scoped_release>())
       .def("set_body_keyframes", &Simulation::set_body_keyframes, py::arg("body"), py::arg("frame_start"),
            py::arg("frame_end"))
+      .def("release_pins", &Simulation::release_pins, py::arg("vertices"))
+      .def("set_pin_targets", &Simulation::set_pin_targets, py::arg("vertices"), py::arg("frame_start"),
+           py::arg("frame_end"))
       .def_property_readonly("positions", &Simulation::positions)
       .def_property_readonly("velocities", &Simulation::velocities)
       .def("set_state", &Simulation::set_state, py::arg("positions"), py::arg("velocities"),

@@ -69,6 +69,10 @@ class CollisionSystem::Filter : public ContactFilter {
   const CollisionSystem& s_;
 };
 
+void CollisionSystem::release_pins(const std::vector<int>& vertices, const std::vector<double>& vertex_mass) {
+  for (int vertex : vertices) props_.inverse_mass[vertex] = 1.0 / vertex_mass[vertex];
+}
+
 CollisionSystem::CollisionSystem(const Faces& cloth_faces, const Positions& x, const std::vector<double>& vertex_mass,
                                  const std::vector<int>& pinned_vertices, const std::vector<KinematicBody>& bodies,
                                  CollisionSettings settings, int threads,

@@ -42,6 +42,9 @@ class CollisionSystem {
                   const std::vector<std::array<double, 3>>& face_rest_lengths = {});
   ~CollisionSystem();
 
+  // Released pins get their mass back: they take impulses like any cloth vertex.
+  void release_pins(const std::vector<int>& vertices, const std::vector<double>& vertex_mass);
+
   // Adjusts v so that x + h v is collision-free. Bodies move from alpha0 to alpha1 of the frame.
   void respond(const Positions& x, Positions& v, double h, const std::vector<KinematicBody>& bodies, double alpha0,
                double alpha1);

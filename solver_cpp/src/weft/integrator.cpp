@@ -1,5 +1,6 @@
 #include "weft/integrator.h"
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 
@@ -61,7 +62,7 @@ Simulation::Simulation(const SimulationSetup& s)
 
   for (int vertex : s.fixed_pin_vertices) {
     if (vertex < 0 || vertex >= n) throw std::invalid_argument("pinned vertex " + std::to_string(vertex) + " out of range");
-    pins_.fixed.push_back({vertex, row3(x_, vertex)});
+    pins_.fixed.push_back({vertex, row3(x_, vertex), row3(x_, vertex)});
   }
   if (s.body_pin_vertices.size() != s.body_pin_bodies.size())
     throw std::invalid_argument("body_pin_vertices and body_pin_bodies differ in length");
@@ -92,6 +93,32 @@ void Simulation::set_body_keyframes(int body, const Positions& frame_start, cons
   bodies_[body].set_keyframes(frame_start, frame_end);
 }
 
+void Simulation::release_pins(const std::vector<int>& vertices) {
+  std::vector<char> release(x_.rows(), 0);
+  for (int vertex : vertices) {
+    if (vertex < 0 || vertex >= x_.rows()) throw std::invalid_argument("vertex " + std::to_string(vertex) + " out of range");
+    release[vertex] = 1;
+  }
+  const auto released = [&](const auto& pin) { return release[pin.vertex] != 0; };
+  pins_.fixed.erase(std::remove_if(pins_.fixed.begin(), pins_.fixed.end(), released), pins_.fixed.end());
+  pins_.attached.erase(std::remove_if(pins_.attached.begin(), pins_.attached.end(), released), pins_.attached.end());
+  if (collisions_) collisions_->release_pins(vertices, vertex_mass());
+}
+
+void Simulation::set_pin_targets(const std::vector<int>& vertices, const Positions& start, const Positions& end) {
+  if (start.rows() != static_cast<Eigen::Index>(vertices.size()) || end.rows() != start.rows())
+    throw std::invalid_argument("pin targets need one row per vertex");
+  if (!start.allFinite() || !end.allFinite()) throw std::invalid_argument("pin targets must be finite");
+  for (size_t k = 0; k < vertices.size(); ++k) {
+    auto pin = std::find_if(pins_.fixed.begin(), pins_.fixed.end(),
+                            [&](const FixedPin& p) { return p.vertex == vertices[k]; });
+    if (pin == pins_.fixed.end())
+      throw std::invalid_argument("vertex " + std::to_string(vertices[k]) + " is not held by a fixed pin");
+    pin->start = row3(start, static_cast<int>(k));
+    pin->end = row3(end, static_cast<int>(k));
+  }
+}
+
 void Simulation::set_state(const Positions& x, const Positions& v, const VectorX& warm_start) {
   if (x.rows() != x_.rows() || v.rows() != v_.rows())
     throw std::invalid_argument("state must have one row per vertex (" + std::to_string(x_.rows()) + ")");
@@ -115,7 +142,7 @@ Energies Simulation::energies() const {
 void Simulation::build_filter(double h, double alpha_end) {
   filter_.reset(mesh_.vertex_count);
   for (const FixedPin& pin : pins_.fixed)
-    filter_.constrain_fully(pin.vertex, (pin.position - row3(x_, pin.vertex)) / h - row3(v_, pin.vertex));
+    filter_.constrain_fully(pin.vertex, (pin.target(alpha_end) - row3(x_, pin.vertex)) / h - row3(v_, pin.vertex));
   if (pins_.attached.empty()) return;
   for (size_t b = 0; b < bodies_.size(); ++b) bodies_[b].positions_at(alpha_end, body_scratch_[b]);
   for (const BodyPin& pin : pins_.attached) {

@@ -100,6 +100,12 @@ class Simulation {
   const ForceModel& force_model() const { return *force_model_; }
   const std::vector<double>& vertex_mass() const { return force_model_->materials().vertex_mass; }
   const PinSet& pins() const { return pins_; }
+  // Pins released (a sheet held until a time): these vertices move freely from the next step
+  // on and collide as any other. Vertices not pinned are ignored.
+  void release_pins(const std::vector<int>& vertices);
+  // Prescribed pin paths: over the next frame each listed fixed pin's target moves linearly from
+  // its row of start to its row of end (throws for a vertex no fixed pin holds).
+  void set_pin_targets(const std::vector<int>& vertices, const Positions& start, const Positions& end);
   int body_count() const { return static_cast<int>(bodies_.size()); }
   const SolverSettings& settings() const { return settings_; }
   const CollisionSystem* collision_system() const { return collisions_.get(); }

@@ -10,9 +10,12 @@
 
 namespace weft {
 
+// A pin held at a point in space, or moved along a prescribed path: over each frame its target
+// goes linearly from start to end (equal for a pin that stays put).
 struct FixedPin {
   int vertex;
-  Vec3 position;
+  Vec3 start, end;
+  Vec3 target(double alpha) const { return start + alpha * (end - start); }
 };
 
 struct BodyPin {

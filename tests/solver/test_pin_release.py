@@ -1,0 +1,86 @@
+"""Timed pin release and prescribed pin paths (issue 18), through the real solver."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from scenes.builders import sheet_shot
+from weft.runner import ShotRunner
+from weft.shot import ShotError, parse_shot
+from weft.simulate import simulate
+from weft.solver_setup import resolve_scene
+
+CORNERS = [0, 7]  # a 8x8 sheet in the xz plane, held at two corners
+
+
+def held_sheet(frames: int = 14, **pin: Any) -> dict[str, Any]:
+    shot = sheet_shot("held", 8, 8, 0.4, 0.4, plane="xz", pins=CORNERS, frames=frames)
+    shot["cloth"][0]["pins"] = [{"vertices": CORNERS, **pin}]
+    return shot
+
+
+def run(shot: dict[str, Any], tmp_path: Path) -> list[np.ndarray]:
+    scene = resolve_scene(parse_shot(shot), tmp_path)
+    return [np.array(sim.positions) for _, sim, _ in simulate(scene)]
+
+
+def test_pins_hold_until_their_release_then_the_sheet_falls(tmp_path: Path) -> None:
+    start = np.array(parse_shot(held_sheet()).cloth[0].mesh.vertices)[CORNERS]
+    frames = run(held_sheet(release=0.25), tmp_path)  # 24 fps: frame index 7 starts at 0.25 s
+    for index, x in enumerate(frames, start=1):
+        if index <= 6:
+            assert np.array_equal(x[CORNERS], start), index  # held exactly
+    assert frames[6][CORNERS, 1].max() < start[:, 1].min() - 1e-4, "let go at the frame starting at 0.25 s"
+    assert frames[-1][CORNERS, 1].max() < frames[6][CORNERS, 1].max(), "and falling"
+    held = run(held_sheet(), tmp_path)
+    assert np.array_equal(held[-1][CORNERS], start)
+
+
+def test_a_resumed_run_releases_as_the_first_did(tmp_path: Path) -> None:
+    scene = resolve_scene(parse_shot(held_sheet(release=0.25)), tmp_path)
+    ShotRunner(scene, tmp_path / "straight.h5").run()
+    ShotRunner(scene, tmp_path / "resumed.h5", frames=10).run()  # stopped after the release
+    ShotRunner(scene, tmp_path / "resumed.h5", resume=True).run()
+    import h5py
+
+    with h5py.File(tmp_path / "straight.h5") as a, h5py.File(tmp_path / "resumed.h5") as b:
+        assert np.array_equal(a["frames/positions"][()], b["frames/positions"][()])
+
+
+def test_pins_follow_their_path_exactly_at_every_frame(tmp_path: Path) -> None:
+    start = np.array(parse_shot(held_sheet()).cloth[0].mesh.vertices)[CORNERS]
+    t = np.arange(14)[:, None, None] / 24.0
+    path = start[None] + t * np.array([0.5, 0.2, 0.0])  # both corners move up and sideways
+    frames = run(held_sheet(animation=path.tolist()), tmp_path)
+    for index, x in enumerate(frames, start=1):
+        assert np.allclose(x[CORNERS], path[index], rtol=0, atol=1e-12), index
+    assert frames[-1][:, 0].mean() > 0.2 + 0.5 * 12 / 24  # the sheet was dragged along
+
+
+def test_a_path_then_a_release(tmp_path: Path) -> None:
+    start = np.array(parse_shot(held_sheet()).cloth[0].mesh.vertices)[CORNERS]
+    path = start[None] + np.arange(14)[:, None, None] / 24.0 * np.array([0.0, 0.6, 0.0])
+    frames = run(held_sheet(animation=path.tolist(), release=0.25), tmp_path)
+    assert np.allclose(frames[5][CORNERS], path[6], atol=1e-12)  # lifted on the path ...
+    assert frames[-1][CORNERS, 1].max() < path[13][:, 1].min()  # ... then dropped
+
+
+@pytest.mark.parametrize(("pin", "field", "problem"), [
+    ({"release": 5.0}, "cloth[0].pins[0].release", "after the shot's last frame"),
+    ({"animation": np.zeros((3, 2, 3)).tolist()}, "cloth[0].pins[0].animation", "is not (14, 2, 3)"),
+    ({"animation": np.zeros((14, 2, 3)).tolist()}, "cloth[0].pins[0].animation[0]", "from where the pinned vertices start"),
+])
+def test_bad_pins_name_the_field(tmp_path: Path, pin: dict[str, Any], field: str, problem: str) -> None:
+    with pytest.raises(ShotError) as error:
+        resolve_scene(parse_shot(held_sheet(**pin)), tmp_path)
+    assert error.value.field == field and problem in str(error.value), str(error.value)
+
+
+def test_a_pin_cannot_follow_a_body_and_a_path() -> None:
+    shot = held_sheet(animation=np.zeros((14, 2, 3)).tolist(), body="hand")
+    with pytest.raises(Exception, match="either a body or its own animation"):
+        parse_shot(shot)
