@@ -170,6 +170,9 @@ class Body(StrictModel):
         0.0, ge=-1e6, le=1e6, description="Shot frames from the first frame of frame_range to the animation's sample "
         "0 (negative: the animation started before the shot).")
     collide: bool = True
+    collision_offset: NonNegativeFloat = Field(
+        0.0, le=1.0, description="Extra distance, m, the cloth keeps from this body on top of its own thickness (the "
+        "body's outer thickness: a collision proxy smaller than the skin it stands for).")
     group: Name | None = Field(
         default=None,
         description=(

@@ -535,6 +535,8 @@ def collision_settings(scene: Scene) -> Any:
     settings.face_self_collide = np.repeat(switches["piece_self_collide"], counts).astype(bool).tolist()
     settings.body_collide = switches["body_collide"]
     settings.body_group = switches["body_group"]
+    if any(b.collision_offset for b in scene.shot.bodies):
+        settings.body_offset = [float(b.collision_offset) for b in scene.shot.bodies]
     settings.face_thickness = np.repeat([m.thickness for m in materials], counts).astype(np.float64)
     settings.face_friction = np.repeat([m.friction for m in materials], counts).astype(np.float64)
     return settings

@@ -108,6 +108,7 @@ void bind_collision(py::module_& m) {
       .def_readwrite("body_pinch", &CollisionSettings::body_pinch)
       .def_readwrite("self_culling", &CollisionSettings::self_culling)
       .def_readwrite("body_group", &CollisionSettings::body_group)
+      .def_readwrite("body_offset", &CollisionSettings::body_offset)
       .def_readwrite("max_strain", &CollisionSettings::max_strain);
 
   auto setup = py::reinterpret_borrow<py::class_<SimulationSetup>>(m.attr("SimulationSetup"));

@@ -110,3 +110,21 @@ def test_max_edge_strain_is_reported_against_the_rest_shape():
     doc["cloth"][0]["pins"] = [{"vertices": list(range(len(x)))}]
     _, frames = run(make_scene(doc), True)
     assert abs(frames[-1].max_edge_strain - 1.0 / 0.9) < 1e-9
+
+
+def test_a_body_collision_offset_keeps_the_cloth_farther_away():
+    """Per-body collision_offset (issue 18): the cloth rests at its thickness plus the body's
+    offset, on that body only."""
+    def rest_gap(offset: float) -> np.ndarray:
+        doc = table_shot()
+        doc["cloth"][0]["mesh"]["vertices"] = [[x, y + offset, z] for x, y, z in doc["cloth"][0]["mesh"]["vertices"]]
+        doc["bodies"][0]["collision_offset"] = offset
+        sim, frames = run(make_scene(doc))
+        assert all(t.intersections == 0 for t in frames)
+        assert sim.energies().kinetic < 1e-3
+        return sim.positions[:, 1] - 0.25
+
+    plain, offset = rest_gap(0.0), rest_gap(0.01)
+    assert plain.max() <= 0.002 + 1e-9
+    assert offset.min() > 0.01 and offset.max() < 0.015  # thickness 2 mm + offset 10 mm, a wrinkle or two
+    assert abs(np.median(offset) - np.median(plain) - 0.01) < 5e-4

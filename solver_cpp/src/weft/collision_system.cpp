@@ -1,6 +1,7 @@
 #include "weft/collision_system.h"
 
 #include <algorithm>
+#include <cmath>
 #include <stdexcept>
 #include <string>
 
@@ -30,6 +31,10 @@ CollisionSettings checked(CollisionSettings s, int face_count, size_t body_count
     throw std::invalid_argument("collision.body_collide must have one entry per body");
   if (!s.body_group.empty() && s.body_group.size() != body_count)
     throw std::invalid_argument("collision.body_group must have one entry per body");
+  if (!s.body_offset.empty() && s.body_offset.size() != body_count)
+    throw std::invalid_argument("collision.body_offset must have one entry per body");
+  for (double offset : s.body_offset)
+    if (!(offset >= 0.0 && std::isfinite(offset))) throw std::invalid_argument("collision.body_offset must be >= 0");
   return s;
 }
 
@@ -42,9 +47,13 @@ ContactDetection make_detection(const CollisionSettings& s, const Faces& cloth_f
   std::vector<char> body_collide(bodies.size(), 0);
   for (size_t b = 0; b < bodies.size(); ++b)
     body_collide[b] = cloth_collides && (s.body_collide.empty() || s.body_collide[b]);
+  // The margin covers the largest body offset too (a scene without offsets pays nothing).
+  const double widest_offset = props.body_offset.empty() ? 0.0
+                                                         : *std::max_element(props.body_offset.begin(), props.body_offset.end());
   std::vector<double> face_margin(face_count, 0.0);
   for (int f = 0; f < face_count; ++f)
-    for (int c = 0; c < 3; ++c) face_margin[f] = std::max(face_margin[f], props.thickness[cloth_faces(f, c)]);
+    for (int c = 0; c < 3; ++c)
+      face_margin[f] = std::max(face_margin[f], props.thickness[cloth_faces(f, c)] + widest_offset);
   return ContactDetection(cloth_faces, x, std::move(face_collide), std::move(face_self), std::move(face_margin),
                           bodies, body_collide, s.self_culling);
 }
@@ -80,7 +89,7 @@ CollisionSystem::CollisionSystem(const Faces& cloth_faces, const Positions& x, c
     : settings_(checked(std::move(settings), static_cast<int>(cloth_faces.rows()), bodies.size())),
       threads_(std::max(threads, 1)),
       props_(ContactProperties::from_faces(cloth_faces, settings_.face_thickness, settings_.face_friction, vertex_mass,
-                                           pinned_vertices)),
+                                           pinned_vertices, settings_.body_offset)),
       detection_(make_detection(settings_, cloth_faces, x, bodies, props_)), ccd_(threads_) {
   detection_.set_threads(threads_);
   const int vertex_count = static_cast<int>(x.rows());

@@ -7,8 +7,10 @@ namespace weft {
 
 ContactProperties ContactProperties::from_faces(const Faces& faces, const VectorX& face_thickness,
                                                 const VectorX& face_friction, const std::vector<double>& vertex_mass,
-                                                const std::vector<int>& pinned_vertices) {
+                                                const std::vector<int>& pinned_vertices,
+                                                const std::vector<double>& body_offset) {
   ContactProperties c;
+  c.body_offset = body_offset;
   const int vertex_count = static_cast<int>(vertex_mass.size());
   c.inverse_mass.resize(vertex_count);
   for (int i = 0; i < vertex_count; ++i) c.inverse_mass[i] = 1.0 / vertex_mass[i];
@@ -32,7 +34,7 @@ double ContactProperties::pair_thickness(const FeaturePair& pair) const {
   double th = 0.0;
   for (int p : pair.point)
     if (p >= 0) th = std::max(th, thickness[p]);
-  return th > 0.0 ? th : default_thickness;
+  return (th > 0.0 ? th : default_thickness) + (pair.body >= 0 && !body_offset.empty() ? body_offset[pair.body] : 0.0);
 }
 
 double ContactProperties::pair_friction(const FeaturePair& pair) const {

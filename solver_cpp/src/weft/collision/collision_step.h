@@ -21,13 +21,19 @@ constexpr double kCcdSeparationFraction = 0.05;
 struct ContactProperties {
   std::vector<double> inverse_mass;         // per cloth vertex, 0 for pinned vertices
   std::vector<double> thickness, friction;  // per cloth vertex: most over its faces
+  std::vector<double> body_offset;           // per body, added to the thickness against it (empty: 0)
   double default_thickness = kDefaultThickness;  // the largest vertex thickness
 
   // Per-face thickness and friction (empty: defaults) spread to the vertices; throws
   // std::invalid_argument for a thickness that is not positive.
   static ContactProperties from_faces(const Faces& faces, const VectorX& face_thickness, const VectorX& face_friction,
-                                      const std::vector<double>& vertex_mass, const std::vector<int>& pinned_vertices);
+                                      const std::vector<double>& vertex_mass, const std::vector<int>& pinned_vertices,
+                                      const std::vector<double>& body_offset = {});
   double inverse_mass_of(int p) const { return p >= 0 ? inverse_mass[p] : 0.0; }
+  // The separation a cloth vertex keeps from a body (its thickness plus the body's offset).
+  double body_separation(int vertex, int body) const {
+    return thickness[vertex] + (body >= 0 && !body_offset.empty() ? body_offset[body] : 0.0);
+  }
   double pair_thickness(const FeaturePair& pair) const;
   double pair_friction(const FeaturePair& pair) const;
 };

@@ -18,6 +18,9 @@ struct CollisionSettings {
   // character may overlap at joints; they are never a body/body pinch (body_pinch.h).
   std::vector<int> body_group;
   VectorX face_thickness;               // per cloth face, m (empty: 0.002)
+  // Per body: extra separation the cloth keeps from it, m, added to the cloth's thickness (a
+  // body's "outer thickness"; empty: 0 for all).
+  std::vector<double> body_offset;
   VectorX face_friction;                // per cloth face (empty: 0.3)
   int ccd_iterations = 8;               // impulse passes before impact zones
   int zone_iterations = 100;            // impact-zone passes (each grows or merges zones)

@@ -56,7 +56,7 @@ void ContactConstraints::constrain(const Positions& x, const Positions& v, doubl
                        Vec3 bary;
                        const Vec3 p = row3(x, vtx);
                        const double d = point_triangle_distance(p, a, bb, cc, bary);
-                       const double th = props.thickness[vtx];
+                       const double th = props.body_separation(vtx, static_cast<int>(b));
                        if (d >= kContactBand * th || d <= 1e-12 * th) continue;
                        Vec3 vb = Vec3::Zero();
                        for (int q = 0; q < 3; ++q) {
@@ -80,7 +80,7 @@ void ContactConstraints::constrain(const Positions& x, const Positions& v, doubl
     held_[i] = 0;
     if (released || !std::isfinite(best[i]) || filter.projection[i] != Mat3::Identity()) continue;
     Contact c = contact[i];
-    const double th = props.thickness[i];
+    const double th = props.body_separation(i, c.body);
     const double target = best[i] < th ? kRepulsionRate * (th - best[i]) / h : (th - best[i]) / h;
     const double vn = (row3(v, i) - c.body_velocity).dot(c.normal);
     // A contact the last solve held with a pushing impulse stays (resting cloth is pressed by
