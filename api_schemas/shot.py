@@ -233,6 +233,13 @@ class Features(StrictModel):
     gia: bool | None = None
 
 
+class Outputs(StrictModel):
+    """Files written besides the HDF5 cache when the shot finishes (service workers)."""
+
+    usd: bool = Field(False, description="Also write the cloth as USD (cache.usd next to the cache; "
+                                         "GET /v1/jobs/{id}/usd).")
+
+
 class Shot(StrictModel):
     format_version: Literal[1] = SHOT_FORMAT_VERSION
     name: Name
@@ -246,6 +253,7 @@ class Shot(StrictModel):
     bodies: list[Body] = Field(default_factory=list)
     solver: SolverSettings = SolverSettings()
     features: Features = Features()
+    outputs: Outputs = Outputs()
 
     @field_validator("frame_range")
     @classmethod

@@ -112,7 +112,7 @@ def export_usd(cache_path: str | Path, out_path: str | Path, *, velocities: bool
     try:
         from pxr import Tf, Usd, UsdGeom, Vt
     except ImportError:
-        raise ExportError("USD export needs usd-core: pip install 'weft[usd]' (or pip install usd-core)") from None
+        raise ExportError("USD export needs usd-core (a dependency of weft): pip install usd-core") from None
     cache_path, out = Path(cache_path), Path(out_path)
     if out.suffix.lower() not in (".usd", ".usda", ".usdc"):
         raise ExportError(f"{out}: a USD file name ends in .usd, .usda or .usdc")

@@ -465,3 +465,7 @@ class ServiceSettings:
     @staticmethod
     def cache_path(job_dir: Path) -> Path:
         return job_dir / "cache.h5"
+
+    @staticmethod
+    def usd_path(job_dir: Path) -> Path:
+        return job_dir / "cache.usd"

@@ -255,7 +255,21 @@ class Worker:
             self._finish(entry_id, job_id, "failed", error_reason=f"{type(exc).__name__}: {exc}")
             return
         state = "cancelled" if summary.status == "cancelled" else "succeeded"
+        if state == "succeeded" and shot.outputs.usd:
+            try:
+                self._write_usd(job_id, cache)
+            except Exception as exc:  # the frames are in the cache; the USD the shot asked for is not
+                self._finish(entry_id, job_id, "failed", error_reason=f"writing USD: {type(exc).__name__}: {exc}")
+                return
         self._finish(entry_id, job_id, state)
+
+    def _write_usd(self, job_id: str, cache: Any) -> None:
+        """The shot asked for USD: the finished cache as cache.usd beside it (written whole, then
+        renamed). A failure here fails the job: the user asked for the file."""
+        from weft.export import export_usd
+
+        summary = export_usd(cache, self.settings.usd_path(self.settings.job_dir(job_id)))
+        log.info("job %s: wrote USD, frames %d-%d", job_id, *summary.frames)
 
     def _publish(self, job_id: str, index: int, frames_total: int, t: FrameTelemetry,
                  io_seconds: float | None = None) -> None:

@@ -75,6 +75,19 @@ async def get_cache(job_id: JobId, r: Store, owner: Owner, settings: Settings) -
 
 
 @router.get(
+    "/v1/jobs/{job_id}/usd", responses={**ERRORS, 200: {"content": {"model/vnd.usd": {}}}},
+    summary="The cloth as USD, for a finished shot that asked for it (outputs.usd)", response_class=FileResponse,
+)
+async def get_usd(job_id: JobId, r: Store, owner: Owner, settings: Settings) -> FileResponse:
+    h = await load_job(r, owner, job_id)
+    path = settings.usd_path(settings.job_dir(job_id))
+    if not path.exists():
+        raise ApiError(404, f"job {job_id} has no USD file (state {h['state']}; it is written when a shot with "
+                            "outputs.usd succeeds; or run `weft export CACHE --usd OUT.usd` on its cache)")
+    return FileResponse(path, media_type="model/vnd.usd", filename=f"{h['name']}-{job_id[:8]}.usd")
+
+
+@router.get(
     "/v1/jobs/{job_id}/frames/{frame}",
     responses={**ERRORS, 200: {"content": {"application/json": {}, "application/x-npy": {}}}},
     summary="One frame's cloth positions, as JSON or as a NumPy .npy file",

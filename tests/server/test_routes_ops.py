@@ -83,7 +83,7 @@ def test_openapi_lists_every_route_and_the_shot_schema(client: TestClient) -> No
     assert set(spec["paths"]) == {
         "/v1/jobs", "/v1/jobs/{job_id}", "/v1/jobs/{job_id}/telemetry", "/v1/jobs/{job_id}/events",
         "/v1/jobs/{job_id}/cache", "/v1/jobs/{job_id}/frames/{frame}", "/v1/jobs/{job_id}/cancel", "/v1/jobs/{job_id}/retry",
-        "/v1/jobs/{job_id}/shot", "/v1/jobs/{job_id}/log", "/v1/workers", "/v1/queue", "/healthz", "/readyz",
+        "/v1/jobs/{job_id}/shot", "/v1/jobs/{job_id}/log", "/v1/jobs/{job_id}/usd", "/v1/workers", "/v1/queue", "/healthz", "/readyz",
         "/metrics",
     }
     assert "Shot" in spec["components"]["schemas"]

@@ -122,3 +122,25 @@ def test_telemetry_with_a_non_finite_value_is_null_as_its_schema_says(alice: Api
     schemas = client.get("/openapi.json").json()["components"]["schemas"]
     row = schemas["FrameTelemetryJson"]["properties"]
     assert {"type": "null"} in row["final_residual"]["anyOf"] and row["frame"]["type"] == "integer"
+
+
+def test_a_shot_that_asks_for_usd_gets_it_from_its_worker(alice, bob, run_worker, settings, tmp_path) -> None:
+    """outputs.usd (issue 18): the worker writes cache.usd when the shot succeeds; the API serves it."""
+    from pxr import Usd, UsdGeom
+    from routes_support import small_shot
+
+    plain = alice.submit(small_shot("no-usd", frames=3))
+    assert run_worker() == plain
+    r = alice.get(f"/v1/jobs/{plain}/usd")
+    assert r.status_code == 404 and "outputs.usd" in r.json()["detail"]
+    job_id = alice.submit({**small_shot("with-usd", frames=3), "outputs": {"usd": True}})
+    assert run_worker() == job_id
+    assert bob.get(f"/v1/jobs/{job_id}/usd").status_code == 404
+    r = alice.get(f"/v1/jobs/{job_id}/usd")
+    assert r.status_code == 200 and r.headers["content-type"].startswith("model/vnd.usd")
+    (tmp_path / "got.usd").write_bytes(r.content)
+    stage = Usd.Stage.Open(str(tmp_path / "got.usd"))
+    mesh = UsdGeom.Mesh(stage.GetPrimAtPath("/weft/cloth/sheet"))
+    assert mesh.GetPointsAttr().GetTimeSamples() == [1.0, 2.0, 3.0]
+    log = [line["message"] for line in alice.get(f"/v1/jobs/{job_id}/log").json()["lines"]]
+    assert any("wrote USD, frames 1-3" in m for m in log)
