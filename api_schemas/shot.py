@@ -119,6 +119,11 @@ class Material(StrictModel):
     damping: NonNegativeFloat = Field(
         0.002, description="Stiffness-proportional damping time along each condition's gradient, s.", le=10.0
     )
+    stretch_knee: NonNegativeFloat | None = Field(
+        None, le=10.0, description="Biphasic stretch: the strain (0.03 = 3 %) past which the fabric stiffens; none: "
+        "linear. Woven fabric is soft while its crimp straightens, then its yarns themselves stretch.")
+    stretch_knee_ratio: float = Field(
+        10.0, ge=1.0, le=1e4, description="Biphasic stretch: stiffness past the knee over stiffness before it.")
     thickness: PositiveFloat = Field(0.002, description="Collision thickness, m.", le=1.0)
     friction: NonNegativeFloat = Field(0.3, description="Coulomb friction coefficient.", le=10.0)
 

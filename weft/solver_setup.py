@@ -364,6 +364,12 @@ def build_setup(scene: Scene, threads: int = 1, linear_system: str | None = None
     setup.face_shear = scene.face_material["shear"]
     setup.face_bend = scene.face_material["bend"]
     setup.face_damping = scene.face_material["damping"]
+    if any(piece.material.stretch_knee is not None for piece in scene.shot.cloth):  # biphasic stretch somewhere
+        counts = [len(p.faces) for p in scene.pieces]
+        materials = [piece.material for piece in scene.shot.cloth]
+        setup.face_stretch_knee = np.repeat([np.inf if m.stretch_knee is None else m.stretch_knee for m in materials],
+                                            counts).astype(np.float64)
+        setup.face_stretch_ratio = np.repeat([m.stretch_knee_ratio for m in materials], counts).astype(np.float64)
     env = _solver.Environment()
     env.gravity = np.asarray(shot.environment.gravity, dtype=np.float64)
     env.air_drag = shot.environment.air_drag

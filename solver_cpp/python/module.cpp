@@ -59,6 +59,8 @@ PYBIND11_MODULE(_solver, m) {
       .def_readwrite("face_shear", &SimulationSetup::face_shear)
       .def_readwrite("face_bend", &SimulationSetup::face_bend)
       .def_readwrite("face_damping", &SimulationSetup::face_damping)
+      .def_readwrite("face_stretch_knee", &SimulationSetup::face_stretch_knee)
+      .def_readwrite("face_stretch_ratio", &SimulationSetup::face_stretch_ratio)
       .def_readwrite("environment", &SimulationSetup::environment)
       .def_readwrite("fixed_pin_vertices", &SimulationSetup::fixed_pin_vertices)
       .def_readwrite("body_pin_vertices", &SimulationSetup::body_pin_vertices)

@@ -15,11 +15,12 @@ STEP = 1e-6
 TOLERANCE = 1e-5
 
 
-def deformed_sheet(rng: np.random.Generator, damping: float = 0.0, drag: float = 0.0):
+def deformed_sheet(rng: np.random.Generator, damping: float = 0.0, drag: float = 0.0, **material: float):
     """A 5x4 sheet with a curved rest shape, then randomly stretched, compressed and folded."""
     doc = sheet_shot(
         "fd", 5, 4, 0.4, 0.3, plane="xz",
-        material={"stretch_warp": 900.0, "stretch_weft": 500.0, "shear": 70.0, "bend": 3e-3, "damping": damping},
+        material={"stretch_warp": 900.0, "stretch_weft": 500.0, "shear": 70.0, "bend": 3e-3, "damping": damping,
+                  **material},
         air_drag=drag, wind={"velocity": [0.3, 0.0, -0.2]},
     )
     # Curve the rest shape so that rest dihedral angles are not zero.
@@ -142,3 +143,40 @@ def test_hinge_angle_sign_and_value() -> None:
     folded = _solver.hinge_angle(x0, x1, np.array([0.3, 0.0, 1.0]), np.array([0.6, -1.0, 0]))
     assert flat == pytest.approx(0.0, abs=1e-15)
     assert abs(folded) == pytest.approx(np.pi / 2, rel=1e-12)
+
+
+# -- biphasic stretch (issue 18): soft to the knee, ratio times stiffer past it ----------------
+BIPHASIC = {"stretch_knee": 0.02, "stretch_knee_ratio": 12.0}
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_biphasic_stretch_force_and_jacobian_match_finite_differences(seed) -> None:
+    sim, x, v = deformed_sheet(np.random.default_rng(seed), **BIPHASIC)
+    force, dfdx, _ = sim.evaluate_forces(x, v, 0.0, int(T.STRETCH), False)
+    numeric_force = -fd_gradient(lambda y: sim.elastic_energy(y, int(T.STRETCH)), x)
+    assert relative_error(force, numeric_force) < TOLERANCE
+    numeric = fd_jacobian(lambda y: sim.evaluate_forces(y, v, 0.0, int(T.STRETCH), False)[0], x)
+    assert relative_error(dfdx.toarray(), numeric) < TOLERANCE
+    linear, _, _ = deformed_sheet(np.random.default_rng(seed))[0].evaluate_forces(x, v, 0.0, int(T.STRETCH), False)
+    assert np.linalg.norm(force - linear) > 0.1 * np.linalg.norm(linear)  # the random strains pass the knee
+
+
+def test_biphasic_stretch_is_linear_below_the_knee_and_stiff_past_it() -> None:
+    """A strip stretched along warp: force per unit width k s below the knee, k s + (r-1) k (s - knee) past it."""
+    for strain, expected_factor in ((0.01, 0.01), (0.05, 0.05 + 11.0 * 0.03)):
+        doc = sheet_shot("strip", 2, 2, 1.0, 1.0, plane="xz",
+                         material={"stretch_warp": 1000.0, "stretch_weft": 1000.0, "shear": 0.0, "bend": 0.0, **BIPHASIC})
+        scene, sim = make_sim(doc)
+        x = scene.positions.copy()
+        x[:, 0] *= 1.0 + strain  # warp (u) along x
+        force, _, _ = sim.evaluate_forces(x, np.zeros_like(x), 0.0, int(T.STRETCH), False)
+        force = np.asarray(force).reshape(-1, 3)
+        right = x[:, 0] > 0.5 * x[:, 0].max()
+        # The two right vertices carry the strip's tension, k * psi'(s) per metre of width (1 m).
+        assert force[right, 0].sum() == pytest.approx(-1000.0 * expected_factor, rel=1e-9)
+
+
+def test_biphasic_projected_stiffness_is_positive_semidefinite() -> None:
+    sim, x, v = deformed_sheet(np.random.default_rng(7), **BIPHASIC)
+    _, dfdx, _ = sim.evaluate_forces(x, v, 0.0, int(T.STRETCH), True)
+    assert np.linalg.eigvalsh(-dfdx.toarray()).min() > -1e-8 * np.abs(dfdx.toarray()).max()

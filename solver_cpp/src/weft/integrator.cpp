@@ -39,6 +39,12 @@ Simulation::Simulation(const SimulationSetup& s)
   materials.face_stretch_weft = to_std(s.face_stretch_weft);
   materials.face_shear = to_std(s.face_shear);
   materials.face_damping = to_std(s.face_damping);
+  if (s.face_stretch_knee.size() != 0 || s.face_stretch_ratio.size() != 0) {
+    require_rows(s.face_stretch_knee, face_count, "face_stretch_knee");
+    require_rows(s.face_stretch_ratio, face_count, "face_stretch_ratio");
+    materials.face_stretch_knee = to_std(s.face_stretch_knee);
+    materials.face_stretch_ratio = to_std(s.face_stretch_ratio);
+  }
   materials.hinge_bend.resize(mesh_.hinges.size());
   for (size_t h = 0; h < mesh_.hinges.size(); ++h)
     materials.hinge_bend[h] = 0.5 * (s.face_bend[mesh_.hinge_faces[h][0]] + s.face_bend[mesh_.hinge_faces[h][1]]);

@@ -37,6 +37,7 @@ struct SimulationSetup {
   FaceUVs face_uv;
   Positions rest_positions;  // empty: flat rest shape
   VectorX face_density, face_stretch_warp, face_stretch_weft, face_shear, face_bend, face_damping;
+  VectorX face_stretch_knee, face_stretch_ratio;  // biphasic stretch (forces.h); both empty: linear
   Environment environment;
   std::vector<int> fixed_pin_vertices;  // held at their initial positions
   std::vector<int> body_pin_vertices;   // attached to the closest point of body_pin_bodies[k]

@@ -37,13 +37,31 @@ void dihedral_gradient(const V3<T> x[4], V3<T> g[4]) {
   g[1] = (g[2] * s_a + g[3] * s_b) * T(-1.0);
 }
 
-// Projection of a stretch term's curvature: d^2|w|/dw^2 scaled by (|w|-1) is indefinite under
-// compression; dropping it there keeps the block positive semi-definite.
-Mat3 stretch_block(const Vec3& w_hat, double length, double stiffness, bool project_spd) {
+// One stretch direction's energy density psi(s) of the strain s = |w| - 1 and its first two
+// derivatives: k s^2 / 2, plus (ratio - 1) k (s - knee)^2 / 2 beyond the knee (biphasic: soft to
+// the knee, ratio times stiffer past it; C1, so forces are continuous).
+struct StretchResponse {
+  double energy, slope, curvature;
+};
+StretchResponse stretch_response(double strain, double k, const StretchCurve& curve) {
+  StretchResponse r{0.5 * k * strain * strain, k * strain, k};
+  if (strain > curve.knee) {
+    const double extra = (curve.ratio - 1.0) * k, beyond = strain - curve.knee;
+    r.energy += 0.5 * extra * beyond * beyond;
+    r.slope += extra * beyond;
+    r.curvature += extra;
+  }
+  return r;
+}
+
+// Hessian block of psi(|w|) in w: psi'' w_hat w_hat^T + psi'/|w| (I - w_hat w_hat^T). The
+// second part is indefinite under compression (psi' < 0); dropping it there keeps the block
+// positive semi-definite.
+Mat3 stretch_block(const Vec3& w_hat, double length, const StretchResponse& psi, bool project_spd) {
   const Mat3 outer = w_hat * w_hat.transpose();
-  double curvature = (length - 1.0) / length;
-  if (project_spd && curvature < 0.0) curvature = 0.0;
-  return stiffness * (outer + curvature * (Mat3::Identity() - outer));
+  double transverse = psi.slope / length;
+  if (project_spd && transverse < 0.0) transverse = 0.0;
+  return psi.curvature * outer + transverse * (Mat3::Identity() - outer);
 }
 // Columns w_u, w_v of the deformation gradient on the rest (u,v) frame.
 void deformation_columns(const Vec3& x0, const Vec3& x1, const Vec3& x2, const Mat2& dm_inverse, Vec3& w_u,
@@ -54,8 +72,8 @@ void deformation_columns(const Vec3& x0, const Vec3& x1, const Vec3& x2, const M
 }
 
 double membrane_energy_density(double len_u, double len_v, double shear, double k_warp, double k_weft,
-                               double k_shear) {
-  return 0.5 * k_warp * (len_u - 1.0) * (len_u - 1.0) + 0.5 * k_weft * (len_v - 1.0) * (len_v - 1.0) +
+                               double k_shear, const StretchCurve& curve) {
+  return stretch_response(len_u - 1.0, k_warp, curve).energy + stretch_response(len_v - 1.0, k_weft, curve).energy +
          0.5 * k_shear * shear * shear;
 }
 }  // namespace
@@ -66,7 +84,8 @@ Vec3 Environment::wind_at(double time) const {
 }
 
 MembraneResult membrane_element(const Vec3& x0, const Vec3& x1, const Vec3& x2, const Mat2& dm_inverse,
-                                double area, double k_warp, double k_weft, double k_shear, bool project_spd) {
+                                double area, double k_warp, double k_weft, double k_shear, bool project_spd,
+                                const StretchCurve& curve) {
   MembraneResult r;
   Vec3 w_u, w_v;
   deformation_columns(x0, x1, x2, dm_inverse, w_u, w_v);
@@ -78,14 +97,16 @@ MembraneResult membrane_element(const Vec3& x0, const Vec3& x1, const Vec3& x2, 
   const Vec3 u_hat = len_u > 0.0 ? Vec3(w_u / len_u) : Vec3::Zero();
   const Vec3 v_hat = len_v > 0.0 ? Vec3(w_v / len_v) : Vec3::Zero();
 
-  r.energy = membrane_energy_density(len_u, len_v, shear, k_warp, k_weft, k_shear) * area;
+  const StretchResponse psi_u = stretch_response(len_u - 1.0, k_warp, curve);
+  const StretchResponse psi_v = stretch_response(len_v - 1.0, k_weft, curve);
+  r.energy = (psi_u.energy + psi_v.energy + 0.5 * k_shear * shear * shear) * area;
 
-  const Vec3 grad_wu = area * (k_warp * (len_u - 1.0) * u_hat + k_shear * shear * w_v);
-  const Vec3 grad_wv = area * (k_weft * (len_v - 1.0) * v_hat + k_shear * shear * w_u);
-  const Mat3 h_u = len_u > 0.0 ? stretch_block(u_hat, len_u, k_warp, project_spd) : Mat3::Zero();
-  const Mat3 h_v = len_v > 0.0 ? stretch_block(v_hat, len_v, k_weft, project_spd) : Mat3::Zero();
-  const Mat3 gn_u = k_warp * u_hat * u_hat.transpose();
-  const Mat3 gn_v = k_weft * v_hat * v_hat.transpose();
+  const Vec3 grad_wu = area * (psi_u.slope * u_hat + k_shear * shear * w_v);
+  const Vec3 grad_wv = area * (psi_v.slope * v_hat + k_shear * shear * w_u);
+  const Mat3 h_u = len_u > 0.0 ? stretch_block(u_hat, len_u, psi_u, project_spd) : Mat3::Zero();
+  const Mat3 h_v = len_v > 0.0 ? stretch_block(v_hat, len_v, psi_v, project_spd) : Mat3::Zero();
+  const Mat3 gn_u = psi_u.curvature * u_hat * u_hat.transpose();
+  const Mat3 gn_v = psi_v.curvature * v_hat * v_hat.transpose();
   Vec3 shear_grad[3];
   for (int i = 0; i < 3; ++i) shear_grad[i] = w_v * a_u[i] + w_u * a_v[i];
 
@@ -148,6 +169,13 @@ ForceModel::ForceModel(const ClothMesh& mesh, ClothMaterials materials, Environm
   };
   check(materials_.face_stretch_warp, face_count, "face_stretch_warp");
   check(materials_.face_stretch_weft, face_count, "face_stretch_weft");
+  if (!materials_.face_stretch_knee.empty() || !materials_.face_stretch_ratio.empty()) {
+    check(materials_.face_stretch_knee, face_count, "face_stretch_knee");
+    check(materials_.face_stretch_ratio, face_count, "face_stretch_ratio");
+    for (int f = 0; f < face_count; ++f)
+      if (!(materials_.face_stretch_knee[f] >= 0.0) || !(materials_.face_stretch_ratio[f] >= 1.0))
+        throw std::invalid_argument("stretch knee must be >= 0 and its stiffness ratio >= 1");
+  }
   check(materials_.face_shear, face_count, "face_shear");
   check(materials_.face_damping, face_count, "face_damping");
   check(materials_.hinge_bend, mesh.hinges.size(), "hinge_bend");
@@ -167,7 +195,7 @@ MembraneBlocks ForceModel::membrane(int f, const Positions& x, const Positions& 
   const double kf = stretch ? materials_.face_stretch_weft[f] : 0.0;
   const double ks = shear ? materials_.face_shear[f] : 0.0;
   const MembraneResult m =
-      membrane_element(x0, x1, x2, mesh_.rest_dm_inverse[f], mesh_.rest_area[f], kw, kf, ks, project_spd);
+      membrane_element(x0, x1, x2, mesh_.rest_dm_inverse[f], mesh_.rest_area[f], kw, kf, ks, project_spd, curve(f));
   MembraneBlocks out;
   out.energy = m.energy;
   out.force = -m.gradient;
@@ -180,7 +208,7 @@ MembraneBlocks ForceModel::membrane(int f, const Positions& x, const Positions& 
         all_elastic ? m.gauss_newton
                     : membrane_element(x0, x1, x2, mesh_.rest_dm_inverse[f], mesh_.rest_area[f],
                                        materials_.face_stretch_warp[f], materials_.face_stretch_weft[f],
-                                       materials_.face_shear[f], true)
+                                       materials_.face_shear[f], true, curve(f))
                           .gauss_newton;
     out.damping = materials_.face_damping[f] * gauss_newton;
     Vec9 v_local;
@@ -290,7 +318,7 @@ double ForceModel::elastic_energy(const Positions& x, unsigned terms) const {
     const double ks = (terms & kShear) ? materials_.face_shear[f] : 0.0;
     Vec3 w_u, w_v;  // energy only: no gradient or Hessian
     deformation_columns(row3(x, face[0]), row3(x, face[1]), row3(x, face[2]), mesh_.rest_dm_inverse[f], w_u, w_v);
-    energy += membrane_energy_density(w_u.norm(), w_v.norm(), w_u.dot(w_v), kw, kf, ks) * mesh_.rest_area[f];
+    energy += membrane_energy_density(w_u.norm(), w_v.norm(), w_u.dot(w_v), kw, kf, ks, curve(f)) * mesh_.rest_area[f];
   }
   if (terms & kBend) {
     for (size_t h = 0; h < mesh_.hinges.size(); ++h) {

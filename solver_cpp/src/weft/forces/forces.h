@@ -4,6 +4,7 @@
 //
 // Energies (per triangle of rest area A, deformation gradient columns w_u, w_v):
 //   E_stretch = A (k_warp/2 (|w_u|-1)^2 + k_weft/2 (|w_v|-1)^2)          [k in N/m]
+//     biphasic: + A (ratio-1) k/2 (s - knee)^2 for a strain s = |w|-1 past the knee
 //   E_shear   = A  k_shear/2 (w_u . w_v)^2                                [N/m]
 //   E_bend    = k_bend w_e/2 (theta - theta_rest)^2, w_e = 3|e|^2/(A0+A1) [k_bend in N m]
 // Damping force of a condition C with stiffness k: -beta k A grad(C) grad(C)^T v (beta in s).
@@ -15,6 +16,8 @@
 // (compressed-stretch curvature, shear cross term, bending angle curvature) so that the
 // implicit system stays symmetric positive definite.
 #pragma once
+
+#include <limits>
 
 #include "weft/mesh/mesh.h"
 
@@ -32,6 +35,9 @@ enum ForceTerm : unsigned {
 
 struct ClothMaterials {  // structure of arrays
   std::vector<double> face_stretch_warp, face_stretch_weft, face_shear, face_damping;
+  // Biphasic stretch (both directions): past the strain face_stretch_knee the stretch stiffness
+  // is face_stretch_ratio times higher (both empty: linear everywhere).
+  std::vector<double> face_stretch_knee, face_stretch_ratio;
   std::vector<double> hinge_bend;
   std::vector<double> vertex_mass;
 };
@@ -62,6 +68,12 @@ struct ElementBuffers {
   double elastic_energy = 0.0;
 };
 
+// A stretch direction's response: linear up to the strain `knee`, `ratio` times stiffer beyond.
+struct StretchCurve {
+  double knee = std::numeric_limits<double>::infinity();
+  double ratio = 1.0;
+};
+
 // Single-element kernels, exposed for unit tests.
 struct MembraneResult {
   double energy = 0.0;
@@ -70,7 +82,8 @@ struct MembraneResult {
   Mat9 gauss_newton = Mat9::Zero();
 };
 MembraneResult membrane_element(const Vec3& x0, const Vec3& x1, const Vec3& x2, const Mat2& dm_inverse,
-                                double area, double k_warp, double k_weft, double k_shear, bool project_spd);
+                                double area, double k_warp, double k_weft, double k_shear, bool project_spd,
+                                const StretchCurve& curve = {});
 
 struct HingeResult {
   double energy = 0.0;
@@ -119,6 +132,10 @@ class ForceModel {
   const Environment& environment() const { return environment_; }
 
  private:
+  StretchCurve curve(int f) const {
+    return materials_.face_stretch_knee.empty() ? StretchCurve{}
+                                                : StretchCurve{materials_.face_stretch_knee[f], materials_.face_stretch_ratio[f]};
+  }
   const ClothMesh& mesh_;
   ClothMaterials materials_;
   Environment environment_;
