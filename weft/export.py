@@ -6,11 +6,11 @@ USD layout: ``/weft`` (the default prim, an Xform) holds one ``UsdGeomMesh`` per
 under ``/weft/cloth/<piece>``, each with its triangles (faceVertexCounts / faceVertexIndices),
 ``points`` time-sampled at every exported frame and, optionally, ``velocities`` (m/s; USD reads
 them per second of stage time, and timeCodesPerSecond is the shot's fps, so they match the
-frame spacing). Time code = frame number. Units: metres (``metersPerUnit = 1``). Up axis: the
-axis opposite the shot's gravity when gravity lies along Y or Z (Y for weft's default
-``(0, -9.81, 0)``), else Y. The root layer's custom data records the weft version, the shot's
-name and its hash. Kinematic bodies are not exported: the cache stores their triangles but not
-their animated positions.
+frame spacing). Time code = frame number. Units: metres (``metersPerUnit = 1``). Up axis: Z
+when the shot's gravity lies along Z, else Y (weft's default gravity is ``(0, -9.81, 0)``): up is
+what gravity pulls against. The root layer's custom data records the weft version, the shot's
+name and its hash. Kinematic bodies are not exported: the cache stores their triangles only, not
+their vertices or motion (those are asset files beside the shot, see docs/cache-format.md).
 """
 
 from __future__ import annotations
@@ -22,6 +22,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import h5py
 import numpy as np
 
 from weft.cache import CACHE_FORMAT, CacheError, open_cache_reader
@@ -33,6 +34,8 @@ class ExportError(ValueError):
 
 @dataclass(frozen=True)
 class ExportSummary:
+    """What an export wrote: the USD file or the OBJ folder, and which frames and pieces."""
+
     path: Path
     frames: tuple[int, int]  # first and last exported frame numbers
     frame_count: int
@@ -65,16 +68,7 @@ def _read(f: Any, path: Path, frames: range | None) -> _Cache:
     numbers = np.asarray(f["frames/frame"][()])
     if len(numbers) == 0:
         raise ExportError(f"{path} has no finished frame yet")
-    available = (int(numbers[0]), int(numbers[-1]))
-    if frames is None:
-        rows = np.arange(len(numbers))
-    else:
-        if len(frames) == 0:
-            raise ExportError(f"the frame selection {frames.start}:{frames.stop} is empty")
-        outside = [n for n in (frames[0], frames[-1]) if not available[0] <= n <= available[1]]
-        if outside:
-            raise ExportError(f"frame {outside[0]} is not in {path}: it has frames {available[0]}-{available[1]}")
-        rows = np.array([int(np.searchsorted(numbers, n)) for n in frames])
+    rows = np.arange(len(numbers)) if frames is None else _selected_rows(numbers, frames, path)
     shot = json.loads(f.attrs["shot_json"])
     gravity = tuple(float(g) for g in shot.get("environment", {}).get("gravity", (0.0, -9.81, 0.0)))
     pieces = [
@@ -86,9 +80,27 @@ def _read(f: Any, path: Path, frames: range | None) -> _Cache:
                   float(f.attrs["fps"]), gravity, numbers[rows], rows, pieces)  # type: ignore[arg-type]
 
 
+def _selected_rows(numbers: np.ndarray, frames: range, path: Path) -> np.ndarray:
+    """Row indices of the selected frame numbers; every one must be a finished frame."""
+    available = f"it has frames {int(numbers[0])}-{int(numbers[-1])}"
+    if len(frames) == 0:
+        raise ExportError(f"the frame selection {frames!r} is empty; {path}: {available}")
+    first, last = sorted((frames[0], frames[-1]))
+    if first < numbers[0] or last > numbers[-1]:  # checked before iterating: the range may be huge
+        asked = f"frame {first} is" if first == last else f"frames {first}-{last} are"
+        raise ExportError(f"{asked} not {'all ' if first != last else ''}in {path}: {available}")
+    row_of = {int(n): row for row, n in enumerate(numbers)}
+    missing = [n for n in frames if n not in row_of]
+    if missing:
+        raise ExportError(f"frame {missing[0]} is not in {path}: {available}")
+    return np.array([row_of[n] for n in frames])
+
+
 def _open(path: Path) -> Any:
     if not path.is_file():
         raise ExportError(f"no such file: {path}")
+    if not h5py.is_hdf5(path):
+        raise ExportError(f"{path} is not a weft cache (not an HDF5 file)")
     try:
         return open_cache_reader(path)
     except CacheError as exc:
@@ -108,9 +120,15 @@ def _check_parent(out: Path) -> None:
 
 def export_usd(cache_path: str | Path, out_path: str | Path, *, velocities: bool = True,
                frames: range | None = None) -> ExportSummary:
-    """Write the cache's cloth as a USD stage (.usd, .usda or .usdc)."""
+    """Write the cache's cloth as a USD stage (.usd, .usda or .usdc), replacing `out_path` atomically.
+
+    Up axis: Z when the shot's gravity lies along Z, else Y (weft's default gravity is -Y). The
+    stage's up axis tells a DCC which way is up, and that is the direction gravity pulls against;
+    USD has no -Y or -Z, so the axis alone is recorded. A layer of `out_path` already loaded in this
+    process is reloaded, so a stage opened on the previous file sees the new one.
+    """
     try:
-        from pxr import Tf, Usd, UsdGeom, Vt
+        from pxr import Sdf, Tf, Usd, UsdGeom, Vt
     except ImportError:
         raise ExportError("USD export needs usd-core (a dependency of weft): pip install usd-core") from None
     cache_path, out = Path(cache_path), Path(out_path)
@@ -160,8 +178,25 @@ def export_usd(cache_path: str | Path, out_path: str | Path, *, velocities: bool
             temporary.replace(out)
         finally:
             temporary.unlink(missing_ok=True)
+    loaded = Sdf.Layer.Find(str(out))
+    if loaded is not None:
+        loaded.Reload(force=True)
     return ExportSummary(out, (int(cache.frames[0]), int(cache.frames[-1])), len(cache.frames),
                          tuple(p.name for p in cache.pieces))
+
+
+def _write_atomically(target: Path, lines: list[str]) -> None:
+    """Write `lines` to a hidden temporary file beside `target`, then rename it to `target`."""
+    with tempfile.NamedTemporaryFile("w", dir=target.parent, prefix=f".{target.stem}.", suffix=".partial",
+                                     delete=False) as tmp:
+        temporary = Path(tmp.name)
+        try:
+            tmp.writelines(lines)
+        except BaseException:
+            tmp.close()
+            temporary.unlink(missing_ok=True)
+            raise
+    temporary.replace(target)
 
 
 def export_obj_sequence(cache_path: str | Path, out_dir: str | Path, *, frames: range | None = None) -> ExportSummary:
@@ -169,6 +204,8 @@ def export_obj_sequence(cache_path: str | Path, out_dir: str | Path, *, frames: 
     atomically."""
     cache_path, out = Path(cache_path), Path(out_dir)
     _check_parent(out)
+    if out.exists() and not out.is_dir():
+        raise ExportError(f"cannot write the OBJ sequence into {out}: it is a file, not a folder")
     out.mkdir(exist_ok=True)
     with _open(cache_path) as f:
         cache = _read(f, cache_path, frames)
@@ -181,9 +218,6 @@ def export_obj_sequence(cache_path: str | Path, out_dir: str | Path, *, frames: 
                 lines.append(f"g {piece.name}\n")
                 lines += [f"f {a + 1} {b + 1} {c + 1}\n" for a, b, c in piece.faces + piece.vertex_offset]
             target = out / f"{cache.shot_name}_{int(number):04d}.obj"
-            with tempfile.NamedTemporaryFile("w", dir=out, prefix=f".{target.stem}.", suffix=".partial",
-                                             delete=False) as tmp:
-                tmp.writelines(lines)
-            Path(tmp.name).replace(target)
+            _write_atomically(target, lines)
     return ExportSummary(out, (int(cache.frames[0]), int(cache.frames[-1])), len(cache.frames),
                          tuple(p.name for p in cache.pieces))

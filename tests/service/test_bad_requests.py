@@ -69,7 +69,7 @@ CASES: list[Case] = [
     ("too many vertices", lambda c, s: c.post("/v1/jobs", json=__import__("scenes.builders", fromlist=["x"]).sheet_shot("big", 80, 80, 1, 1)), 422, "vertices exceeds the limit"),
     ("oversize JSON body", lambda c, s: c.post("/v1/jobs", content=b"{" + b" " * 1_100_000 + b"}", headers={"Content-Type": "application/json"}), 413, "limit"),
     ("oversize upload", lambda c, s: c.post("/v1/jobs", **multipart(small_shot(), ("big.npy", b"\0" * 2_100_000))), 413, "limit"),
-    ("mismatched animation", lambda c, s: c.post("/v1/jobs", **multipart(*[(sh, ("anim.npy", data)) for sh, data in [with_body(7)]][0])), 422, "bodies[0].animation"),
+    ("animation shorter than the shot", lambda c, s: c.post("/v1/jobs", **multipart(*[(sh, ("anim.npy", data)) for sh, data in [with_body(3)]][0])), 422, "bodies[0].animation"),
     ("asset not uploaded", lambda c, s: c.post("/v1/jobs", **multipart(shot_with("cloth.0.mesh", {"path": "sheet.obj"}))), 422, "cloth[0].mesh.path"),
     ("unreferenced upload", lambda c, s: c.post("/v1/jobs", **multipart(small_shot(), ("extra.obj", b"v 0 0 0\n"))), 400, "not referenced"),
     ("path traversal file name", lambda c, s: c.post("/v1/jobs", **multipart(small_shot(), ("../../etc/passwd", b"x"))), 400, "bad asset file name"),

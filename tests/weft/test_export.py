@@ -14,6 +14,7 @@ import pytest
 from pxr import Usd, UsdGeom
 
 from scenes.builders import sheet_shot
+from weft.cache import CacheWriter
 from weft.export import ExportError, export_obj_sequence, export_usd, up_axis
 from weft.runner import ShotRunner
 from weft.shot import parse_shot
@@ -47,7 +48,10 @@ def test_usd_holds_every_frame_of_every_piece_exactly(cache: Path, tmp_path: Pat
     assert (stage.GetStartTimeCode(), stage.GetEndTimeCode()) == (1.0, 4.0)
     assert UsdGeom.GetStageUpAxis(stage) == UsdGeom.Tokens.y and UsdGeom.GetStageMetersPerUnit(stage) == 1.0
     assert stage.GetDefaultPrim().GetPath() == "/weft"
-    assert stage.GetRootLayer().customLayerData["weft:shot"] == "export"
+    with h5py.File(cache, "r") as f:
+        recorded = {"weft:version": f.attrs["weft_version"], "weft:shot": "export",
+                    "weft:shot_hash": f.attrs["shot_hash"]}
+    assert dict(stage.GetRootLayer().customLayerData) == recorded and len(recorded["weft:shot_hash"]) == 64
     with h5py.File(cache, "r") as f:
         positions, velocities = f["frames/positions"][()], f["frames/velocities"][()]
         pieces = {name: (int(g.attrs["vertex_offset"]), int(g.attrs["vertex_count"]), g["faces"][()])
@@ -101,8 +105,16 @@ def test_bad_exports_name_the_problem(cache: Path, tmp_path: Path) -> None:
         f["x"] = 1
     with pytest.raises(ExportError, match="is not a weft cache"):
         export_usd(not_a_cache, tmp_path / "a.usd")
-    with pytest.raises(ExportError, match="frame 9 is not in .*: it has frames 1-4"):
+    with pytest.raises(ExportError, match="frames 2-9 are not all in .*: it has frames 1-4"):
         export_usd(cache, tmp_path / "a.usd", frames=range(2, 10))
+    with pytest.raises(ExportError, match="frame 9 is not in .*: it has frames 1-4"):
+        export_obj_sequence(cache, tmp_path / "objs", frames=range(9, 10))
+    with pytest.raises(ExportError, match=r"frame selection range\(3, 3\) is empty; .*cache.h5: it has frames 1-4"):
+        export_usd(cache, tmp_path / "a.usd", frames=range(3, 3))
+    text = tmp_path / "notes.h5"
+    text.write_text("not hdf5")
+    with pytest.raises(ExportError, match="notes.h5 is not a weft cache \\(not an HDF5 file\\)"):
+        export_obj_sequence(text, tmp_path / "objs")
     with pytest.raises(ExportError, match="folder .*missing does not exist"):
         export_obj_sequence(cache, tmp_path / "missing" / "objs")
     with pytest.raises(ExportError, match="ends in .usd"):
@@ -113,14 +125,76 @@ def test_bad_exports_name_the_problem(cache: Path, tmp_path: Path) -> None:
 
 def test_cli_export(cache: Path, tmp_path: Path) -> None:
     done = subprocess.run([WEFT, "export", str(cache), "--usd", str(tmp_path / "cli.usdc"), "--frames", "1:2"],
-                          capture_output=True, text=True, timeout=120)
+                          check=False, capture_output=True, text=True, timeout=120)
     assert done.returncode == 0, done.stderr
     assert "frames 1-2 (2)" in done.stdout and (tmp_path / "cli.usdc").is_file()
     objs = subprocess.run([WEFT, "export", str(cache), "--obj-sequence", str(tmp_path / "seq")],
-                          capture_output=True, text=True, timeout=120)
+                          check=False, capture_output=True, text=True, timeout=120)
     assert objs.returncode == 0 and len(list((tmp_path / "seq").glob("*.obj"))) == 4
     for args, message in ((["--usd", "x.usd", "--obj-sequence", "d"], "give one of"),
                           (["--usd", str(tmp_path / "x.usd"), "--frames", "3-1"], "expected FIRST:LAST"),
-                          (["--usd", str(tmp_path / "x.usd"), "--frames", "0:2"], "frame 0 is not in")):
-        bad = subprocess.run([WEFT, "export", str(cache), *args], capture_output=True, text=True, timeout=120)
+                          (["--usd", str(tmp_path / "x.usd"), "--frames", "0:2"], "frames 0-2 are not all in"),
+                          (["--obj-sequence", str(tmp_path / "no" / "seq")], "does not exist")):
+        bad = subprocess.run([WEFT, "export", str(cache), *args],
+                             check=False, capture_output=True, text=True, timeout=120)
         assert bad.returncode == 2 and message in bad.stderr, (args, bad.stderr)
+
+
+def test_cli_without_usd_core_says_how_to_install_it(cache: Path, tmp_path: Path) -> None:
+    # pxr cannot be imported in this interpreter (None in sys.modules makes the import fail)
+    command = ("import sys; sys.modules['pxr'] = None; from weft.cli import app; "
+               "sys.argv = ['weft', 'export', *sys.argv[1:]]; app()")
+    usd = subprocess.run([sys.executable, "-c", command, str(cache), "--usd", str(tmp_path / "x.usd")],
+                         check=False, capture_output=True, text=True, timeout=120)
+    assert usd.returncode == 2 and "pip install usd-core" in usd.stderr, usd.stderr
+    assert not (tmp_path / "x.usd").exists()
+    objs = subprocess.run([sys.executable, "-c", command, str(cache), "--obj-sequence", str(tmp_path / "seq")],
+                          check=False, capture_output=True, text=True, timeout=120)
+    assert objs.returncode == 0 and len(list((tmp_path / "seq").glob("*.obj"))) == 4, objs.stderr
+
+
+def test_stepped_selection_and_a_reexport_seen_by_an_open_stage(cache: Path, tmp_path: Path) -> None:
+    out = tmp_path / "shot.usda"
+    export_usd(cache, out, frames=range(1, 5, 2))
+    stage = Usd.Stage.Open(str(out))
+    mesh = UsdGeom.Mesh(stage.GetPrimAtPath("/weft/cloth/sheet"))
+    assert mesh.GetPointsAttr().GetTimeSamples() == [1.0, 3.0]
+    with h5py.File(cache, "r") as f:
+        third = f["frames/positions"][2, : int(f["cloth/pieces/sheet"].attrs["vertex_count"])]
+    assert np.array_equal(np.array(mesh.GetPointsAttr().Get(3.0), dtype=np.float32), third)
+    export_usd(cache, out, frames=range(2, 4))  # replaces the file this process holds open
+    assert (stage.GetStartTimeCode(), stage.GetEndTimeCode()) == (2.0, 3.0)
+    assert mesh.GetPointsAttr().GetTimeSamples() == [2.0, 3.0]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["shot.usda"]  # no temporary left
+
+
+def test_a_running_and_a_partial_cache_export_their_finished_frames(tmp_path: Path) -> None:
+    path = tmp_path / "z_up.h5"
+    scene = resolve_scene(parse_shot(two_piece_shot(gravity=(0.0, 0.0, -9.81))), tmp_path)  # 4 frames planned
+    live: list[Any] = []
+
+    def export_while_running(record: Any) -> None:
+        if record.index == 1:  # frames 1 and 2 written, the writer still holds the file
+            live.append(export_usd(path, tmp_path / "live.usd"))
+            live.append(export_obj_sequence(path, tmp_path / "live_objs"))
+
+    ShotRunner(scene, path, frames=3).run(on_frame=export_while_running)
+    assert [(s.frames, s.frame_count) for s in live] == [((1, 2), 2), ((1, 2), 2)]
+    assert sorted(f.name for f in (tmp_path / "live_objs").iterdir()) == ["export_0001.obj", "export_0002.obj"]
+    stage = Usd.Stage.Open(str(tmp_path / "live.usd"))
+    assert UsdGeom.GetStageUpAxis(stage) == UsdGeom.Tokens.z and stage.GetEndTimeCode() == 2.0
+    with h5py.File(path, "r") as f:
+        assert f.attrs["status"] == "partial" and list(f["frames/frame"][()]) == [1, 2, 3]
+        positions = f["frames/positions"][()]
+    sheet = UsdGeom.Mesh(stage.GetPrimAtPath("/weft/cloth/sheet")).GetPointsAttr()
+    assert np.array_equal(np.array(sheet.Get(2.0), dtype=np.float32), positions[1, :20])
+    assert export_usd(path, tmp_path / "partial.usd").frames == (1, 3)
+
+
+def test_a_cache_without_finished_frames_is_refused(tmp_path: Path) -> None:
+    path = tmp_path / "empty.h5"
+    scene = resolve_scene(parse_shot(two_piece_shot()), tmp_path)
+    CacheWriter.create(path, scene, "test", 1).close("cancelled")
+    with pytest.raises(ExportError, match="empty.h5 has no finished frame yet"):
+        export_usd(path, tmp_path / "a.usd")
+    assert not (tmp_path / "a.usd").exists()
