@@ -239,10 +239,14 @@ class Features(StrictModel):
 
 
 class Outputs(StrictModel):
-    """Files written besides the HDF5 cache when the shot finishes (service workers)."""
+    """What a run writes besides the cloth: body motion in the cache, a USD file (service)."""
 
     usd: bool = Field(False, description="Also write the cloth as USD (cache.usd next to the cache; "
-                                         "GET /v1/jobs/{id}/usd).")
+                                         "GET /v1/jobs/{id}/usd), with the bodies when body_motion is on.")
+    body_motion: bool = Field(False, description="Keep every body's vertex positions per frame in the cache "
+                                                 "(bodies/<name>/positions), so the cache alone shows the scene and "
+                                                 "the USD export includes the bodies. Costs 12 bytes per body vertex "
+                                                 "and frame.")
 
 
 class Shot(StrictModel):

@@ -7,7 +7,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from weft.cache import STATE_GROUPS, TELEMETRY_DTYPE, open_cache_reader, saved_state_group
+from weft.cache import STATE_GROUPS, TELEMETRY_DTYPE, copy_bodies, open_cache_reader, saved_state_group
 
 
 def committed_rows(f: h5py.File) -> int:
@@ -35,8 +35,8 @@ def snapshot(cache: Path, target: Path) -> int:
         saved = saved_state_group(src)
         rows = min(committed_rows(src), int(src[saved]["frame_index"][0]) + 1)
         dst.attrs.update(dict(src.attrs))
-        for name in ("cloth", "bodies"):
-            src.copy(src[name], dst, name)
+        src.copy(src["cloth"], dst, "cloth")
+        copy_bodies(src, dst, rows)
         for name in STATE_GROUPS:  # both from the whole one
             src.copy(src[saved], dst, name)
         frames = dst.create_group("frames")

@@ -55,6 +55,8 @@ class CacheWriter:
         self._frame_numbers = file["frames/frame"]
         self._telemetry = file["telemetry"]
         self._states = [file[name] for name in STATE_GROUPS if name in file]
+        # Body motion, when the shot asked for it (outputs.body_motion): one dataset per body.
+        self._body_positions = [g["positions"] for g in file["bodies"].values() if "positions" in g]
 
     # -- construction -------------------------------------------------------------------
     @classmethod
@@ -120,7 +122,12 @@ class CacheWriter:
             g.create_dataset("faces", data=piece.faces)
         bodies = f.create_group("bodies")
         for body in scene.bodies:
-            bodies.create_group(body.name).create_dataset("faces", data=body.faces)
+            group = bodies.create_group(body.name)
+            group.create_dataset("faces", data=body.faces)
+            if shot.outputs.body_motion:
+                vertex_count = body.frames.shape[1]
+                group.create_dataset("positions", shape=(0, vertex_count, 3), maxshape=(None, vertex_count, 3),
+                                     chunks=(1, vertex_count, 3), dtype=np.float32)
         frames = f.create_group("frames")
         for name in ("positions", "velocities"):
             frames.create_dataset(
@@ -178,9 +185,17 @@ class CacheWriter:
         velocities: np.ndarray,
         warm_start: np.ndarray,
         telemetry: FrameTelemetry,
+        body_positions: list[np.ndarray] | None = None,
     ) -> None:
+        """body_positions: each body's vertices at this frame (stored when the cache keeps body
+        motion, ignored otherwise)."""
         k = self.frames_written
-        for ds, data in ((self._positions, positions), (self._velocities, velocities)):
+        rows = [(self._positions, positions), (self._velocities, velocities)]
+        if self._body_positions:
+            if body_positions is None or len(body_positions) != len(self._body_positions):
+                raise CacheError("this cache keeps body motion: append needs every body's positions")
+            rows += list(zip(self._body_positions, body_positions, strict=True))
+        for ds, data in rows:
             ds.resize(k + 1, axis=0)
             ds[k] = data.astype(np.float32)
         self._frame_numbers.resize(k + 1, axis=0)
@@ -239,6 +254,20 @@ def _file_identity(st: os.stat_result) -> tuple[int, int]:
     return st.st_dev, st.st_ino
 
 
+def copy_bodies(src: h5py.File, dst: h5py.File, rows: int) -> None:
+    """The bodies group into another file, body motion (if kept) cut to the first `rows` frames."""
+    bodies = dst.create_group("bodies")
+    for name, group in src["bodies"].items():
+        copied = bodies.create_group(name)
+        copied.create_dataset("faces", data=group["faces"][()])
+        if "positions" in group:
+            motion = group["positions"]
+            out = copied.create_dataset("positions", shape=(rows, *motion.shape[1:]), maxshape=(None, *motion.shape[1:]),
+                                        chunks=(1, *motion.shape[1:]), dtype=np.float32)
+            for k in range(rows):
+                out[k] = motion[k]
+
+
 def _rewrite_completed(path: Path, status: str, error: str) -> None:
     """Copy the frames up to the saved state (rows past it were never finished) into a fresh file
     that replaces `path` atomically, with the given status: what a resume and a recovery need,
@@ -251,12 +280,12 @@ def _rewrite_completed(path: Path, status: str, error: str) -> None:
             new.attrs.update(dict(old.attrs))
             new.attrs["status"] = status
             new.attrs["error"] = error
-            for name in ("cloth", "bodies"):
-                old.copy(old[name], new, name)
+            rows = state_index + 1
+            old.copy(old["cloth"], new, "cloth")
+            copy_bodies(old, new, rows)
             for name in STATE_GROUPS:  # both from the whole one
                 old.copy(old[saved], new, name)
             frames = new.create_group("frames")
-            rows = state_index + 1
             for name in ("positions", "velocities"):
                 src = old["frames/" + name]
                 dst = frames.create_dataset(

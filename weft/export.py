@@ -9,8 +9,9 @@ them per second of stage time, and timeCodesPerSecond is the shot's fps, so they
 frame spacing). Time code = frame number. Units: metres (``metersPerUnit = 1``). Up axis: Z
 when the shot's gravity lies along Z, else Y (weft's default gravity is ``(0, -9.81, 0)``): up is
 what gravity pulls against. The root layer's custom data records the weft version, the shot's
-name and its hash. Kinematic bodies are not exported: the cache stores their triangles only, not
-their vertices or motion (those are asset files beside the shot, see docs/cache-format.md).
+name and its hash. Kinematic bodies are exported under ``/weft/bodies/<name>`` when the cache
+keeps their motion (the shot's ``outputs.body_motion``); otherwise the cache has their triangles
+only.
 """
 
 from __future__ import annotations
@@ -118,7 +119,7 @@ def _check_parent(out: Path) -> None:
         raise ExportError(f"cannot write {out}: folder {out.parent} does not exist")
 
 
-def export_usd(cache_path: str | Path, out_path: str | Path, *, velocities: bool = True,
+def export_usd(cache_path: str | Path, out_path: str | Path, *, velocities: bool = True, bodies: bool = True,
                frames: range | None = None) -> ExportSummary:
     """Write the cache's cloth as a USD stage (.usd, .usda or .usdc), replacing `out_path` atomically.
 
@@ -173,6 +174,8 @@ def export_usd(cache_path: str | Path, out_path: str | Path, *, velocities: bool
                     points.Set(Vt.Vec3fArray.FromNumpy(np.ascontiguousarray(x[part])), float(number))
                     if velocity is not None and v is not None:
                         velocity.Set(Vt.Vec3fArray.FromNumpy(np.ascontiguousarray(v[part])), float(number))
+            if bodies:
+                _write_bodies(stage, f, cache)
             stage.GetRootLayer().Save()
             del stage
             temporary.replace(out)
@@ -183,6 +186,32 @@ def export_usd(cache_path: str | Path, out_path: str | Path, *, velocities: bool
         loaded.Reload(force=True)
     return ExportSummary(out, (int(cache.frames[0]), int(cache.frames[-1])), len(cache.frames),
                          tuple(p.name for p in cache.pieces))
+
+
+def _write_bodies(stage: Any, f: Any, cache: _Cache) -> None:
+    """The bodies whose motion the cache keeps (outputs.body_motion), under /weft/bodies/<name>,
+    their points sampled at the exported frames."""
+    from pxr import Tf, UsdGeom, Vt
+
+    moving = {name: g for name, g in f["bodies"].items() if "positions" in g}
+    if not moving:
+        return
+    UsdGeom.Scope.Define(stage, "/weft/bodies")
+    used: set[str] = set()
+    for name, group in moving.items():
+        prim_name = Tf.MakeValidIdentifier(name)
+        while prim_name in used:
+            prim_name += "_"
+        used.add(prim_name)
+        mesh = UsdGeom.Mesh.Define(stage, f"/weft/bodies/{prim_name}")
+        faces = np.asarray(group["faces"][()])
+        mesh.CreateFaceVertexCountsAttr(Vt.IntArray([3] * len(faces)))
+        mesh.CreateFaceVertexIndicesAttr(Vt.IntArray(faces.astype(np.int32).ravel().tolist()))
+        mesh.CreateSubdivisionSchemeAttr(UsdGeom.Tokens.none)
+        mesh.GetPrim().SetCustomDataByKey("weft:body", name)
+        points = mesh.CreatePointsAttr()
+        for number, row in zip(cache.frames, cache.rows, strict=True):
+            points.Set(Vt.Vec3fArray.FromNumpy(np.ascontiguousarray(group["positions"][int(row)])), float(number))
 
 
 def _write_atomically(target: Path, lines: list[str]) -> None:

@@ -104,7 +104,8 @@ class ShotRunner:
                 else:
                     telemetry = telemetry_row(frame, advance(sim, scene, index))
                 write_start = time.perf_counter()
-                writer.append(frame, sim.positions, sim.velocities, sim.warm_start, telemetry)
+                writer.append(frame, sim.positions, sim.velocities, sim.warm_start, telemetry,
+                              [body.frames[index] for body in scene.bodies])
                 write_end = time.perf_counter()
                 summary.telemetry.append(telemetry)
                 if on_frame is not None:

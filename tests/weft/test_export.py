@@ -198,3 +198,38 @@ def test_a_cache_without_finished_frames_is_refused(tmp_path: Path) -> None:
     with pytest.raises(ExportError, match="empty.h5 has no finished frame yet"):
         export_usd(path, tmp_path / "a.usd")
     assert not (tmp_path / "a.usd").exists()
+
+
+def test_body_motion_is_kept_and_exported_when_the_shot_asks(tmp_path: Path) -> None:
+    """outputs.body_motion: bodies/<name>/positions per frame in the cache (also through a
+    resume), and /weft/bodies/<name> in the USD; without it, no body motion and no body prims."""
+    from scenes.collision import box_mesh
+    from scenes.builders import inline_mesh
+
+    shot = two_piece_shot()
+    vertices, faces = box_mesh((0.2, 0.2, 0.2), (0.0, -0.5, 0.0))
+    np.save(tmp_path / "box.npy", vertices[None] + np.arange(4)[:, None, None] * np.array([0.01, 0.0, 0.0]))
+    shot["bodies"] = [{"name": "prop.box", "mesh": inline_mesh(vertices, faces), "animation": {"path": "box.npy"}}]
+    shot["outputs"] = {"body_motion": True}
+    scene = resolve_scene(parse_shot(shot), tmp_path)
+    ShotRunner(scene, tmp_path / "half.h5", frames=2).run()
+    ShotRunner(scene, tmp_path / "half.h5", resume=True).run()  # the rewrite keeps the finished body rows
+    with h5py.File(tmp_path / "half.h5", "r") as f:
+        motion = f["bodies/prop.box/positions"][()]
+    assert motion.shape == (4, len(vertices), 3)
+    assert np.array_equal(motion, np.load(tmp_path / "box.npy").astype(np.float32))
+    export_usd(tmp_path / "half.h5", tmp_path / "with.usda")
+    stage = Usd.Stage.Open(str(tmp_path / "with.usda"))
+    body = UsdGeom.Mesh(stage.GetPrimAtPath("/weft/bodies/prop_box"))
+    assert body.GetPrim().GetCustomDataByKey("weft:body") == "prop.box"
+    assert np.array_equal(np.array(body.GetPointsAttr().Get(3.0), dtype=np.float32), motion[2])
+    export_usd(tmp_path / "half.h5", tmp_path / "without.usda", bodies=False)
+    assert not Usd.Stage.Open(str(tmp_path / "without.usda")).GetPrimAtPath("/weft/bodies")
+
+    shot["outputs"] = {"body_motion": False}
+    plain = resolve_scene(parse_shot(shot), tmp_path)
+    ShotRunner(plain, tmp_path / "plain.h5").run()
+    with h5py.File(tmp_path / "plain.h5", "r") as f:
+        assert "positions" not in f["bodies/prop.box"]
+    export_usd(tmp_path / "plain.h5", tmp_path / "plain.usda")
+    assert not Usd.Stage.Open(str(tmp_path / "plain.usda")).GetPrimAtPath("/weft/bodies")

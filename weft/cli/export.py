@@ -36,6 +36,8 @@ def export(
     frames: Annotated[str | None, typer.Option("--frames", help="FIRST:LAST frame numbers, inclusive")] = None,
     velocities: Annotated[bool, typer.Option("--velocities/--no-velocities", help="USD: time-sampled velocities")]
     = True,
+    bodies: Annotated[bool, typer.Option("--bodies/--no-bodies", help="USD: the bodies, when the cache keeps their "
+                                                                      "motion (outputs.body_motion)")] = True,
 ) -> None:
     """Export a cache's cloth to USD or an OBJ sequence (finished frames only)."""
     from weft.export import ExportError, export_obj_sequence, export_usd
@@ -45,7 +47,7 @@ def export(
     selection = frame_range(frames)
     try:
         if usd is not None:
-            summary = export_usd(cache, usd, velocities=velocities, frames=selection)
+            summary = export_usd(cache, usd, velocities=velocities, bodies=bodies, frames=selection)
         else:
             summary = export_obj_sequence(cache, obj_sequence, frames=selection)  # type: ignore[arg-type]
     except ExportError as exc:
