@@ -59,6 +59,10 @@ async def lifespan(app: FastAPI) -> AsyncIterator[None]:
         await remove_orphaned_uploads(settings.storage / "jobs", has_record, time.time())
     except redis.RedisError:
         pass  # Redis not up: nothing can be told apart from an orphan now; the next start does it
+    try:
+        await jobstore.index_all_jobs(app.state.redis)
+    except redis.RedisError:
+        pass  # the next start does it
     stop_housekeeping = asyncio.Event()
     housekeeping = [
         asyncio.create_task(ops.sample_queue_until(stop_housekeeping, app.state.redis, settings)),

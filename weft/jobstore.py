@@ -347,6 +347,18 @@ def queue_new_job(pipe: Any, record: dict[str, Any], tags: list[str] | tuple[str
                         int(record.get("priority", scheduler.DEFAULT_PRIORITY)), record["created"])
 
 
+async def index_all_jobs(r: Any) -> int:
+    """Jobs submitted before every job was indexed in ``weft:jobs`` (what admin keys list) are
+    added from the owners' indexes, once: a store with an empty ``weft:jobs`` and some owner
+    index. Returns the number of jobs indexed."""
+    if await r.exists(ALL_JOBS):
+        return 0
+    owners = [key async for key in r.scan_iter(match=f"{PREFIX}:owner:*:jobs", count=1000)]
+    if not owners:
+        return 0
+    return int(await r.zunionstore(ALL_JOBS, owners, aggregate="MIN"))
+
+
 def failed_attempts(job: dict[str, str]) -> int:
     """Runs of a job that ended without handing it back: its worker died or froze. Graceful
     interruptions (``requeue``) do not count."""
