@@ -34,6 +34,8 @@ def main() -> None:
     uvicorn.run(
         "server.main:create_app", factory=True, host=args.host, port=args.port, workers=args.processes,
         log_level=os.environ.get("WEFT_LOG_LEVEL", "warning").lower(),
+        # Open event streams end on their own within seconds; never wait on a client for ever.
+        timeout_graceful_shutdown=10,
     )
 
 

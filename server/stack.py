@@ -51,15 +51,22 @@ def _wait_ready(
         time.sleep(0.05)
 
 
-def _stop_processes(procs: list[subprocess.Popen[bytes] | None]) -> None:
-    """SIGTERM the live ones, then wait for each (SIGKILL after 15 s)."""
+def _stop_processes(procs: list[subprocess.Popen[bytes] | None], grace_seconds: float = 15.0) -> None:
+    """SIGTERM the live ones at once, then wait for them all under one deadline; any still
+    running after ``grace_seconds`` is SIGKILLed and named on stderr (so stopping a stack takes
+    at most about grace_seconds, however many processes it has)."""
     live = [p for p in procs if p is not None and p.poll() is None]
     for p in live:
         p.send_signal(signal.SIGTERM)
+    deadline = time.monotonic() + grace_seconds
     for p in live:
         try:
-            p.wait(timeout=15)
+            p.wait(timeout=max(deadline - time.monotonic(), 0.0))
         except subprocess.TimeoutExpired:
+            command = p.args if isinstance(p.args, list) else [p.args]
+            name = getattr(p, "name", None) or " ".join(map(str, command[:3]))
+            print(f"weft: {name} (pid {p.pid}) did not stop within {grace_seconds:g} s of SIGTERM; killed",
+                  file=sys.stderr)
             p.kill()
             p.wait()
 

@@ -126,8 +126,14 @@ def test_weft_up_serves_and_stops_cleanly(tmp_path: Path) -> None:
         assert (tmp_path / "home" / "stack.json").exists()
     finally:
         up.send_signal(signal.SIGINT)
-        up.wait(timeout=30)
-    assert up.returncode == 0
+        try:
+            up.wait(timeout=30)
+        except subprocess.TimeoutExpired:
+            up.kill()
+            raise AssertionError(f"weft up still ran 30 s after Ctrl-C; it printed:\n{up.communicate()[0]}") from None
+    output = up.communicate()[0]
+    assert up.returncode == 0, output
+    assert "did not stop" not in output, output  # every process stopped on SIGTERM, none was killed
     assert not (tmp_path / "home" / "stack.json").exists()
     try:
         httpx.get(f"http://127.0.0.1:{port}/healthz", timeout=1)
