@@ -66,53 +66,79 @@ void compute_force_elements(const ForceModel& model, const ForceElementLayout& l
   out.blocks.resize(static_cast<size_t>(element_count) * kElementSlots * 9);
   out.rhs.resize(static_cast<size_t>(element_count) * 12);
   const Vec3 wind = model.environment().wind_at(time);
-  constexpr bool project_spd = true;
+  const double h2 = h * h;
 
+  // Per element, from the factored forms (forces.h), never forming 12x12 matrices:
+  //   rhs = h (f - h K v) = -h grad E + h f_vertex - B v,   B = h^2 K + h D (the blocks).
 #pragma omp parallel for schedule(static) num_threads(threads)
   for (int e = 0; e < element_count; ++e) {
     const int count = layout.count[e];
     const auto& vs = layout.vertices[e];
-    Vec12 force = Vec12::Zero();
-    Mat12 stiffness, damping;
-    if (layout.hinge[e] >= 0) {
-      const HingeBlocks b = model.hinge(layout.hinge[e], x, v, kAllForces, project_spd);
-      force = b.force;
-      stiffness = b.stiffness;
-      damping = b.damping;
-    } else {
-      stiffness.setZero();
-      damping.setZero();
+    Vec3 vel[4], rhs[4];
+    for (int a = 0; a < count; ++a) {
+      vel[a] = row3(v, vs[a]);
+      rhs[a].setZero();
     }
-    if (layout.face[e] >= 0) {
-      const MembraneBlocks m = model.membrane(layout.face[e], x, v, kAllForces, project_spd);
-      const auto& slot = layout.face_slot[e];
-      for (int i = 0; i < 3; ++i) {
-        force.segment<3>(3 * slot[i]) += m.force.segment<3>(3 * i);
-        for (int j = 0; j < 3; ++j) {
-          stiffness.block<3, 3>(3 * slot[i], 3 * slot[j]) += m.stiffness.block<3, 3>(3 * i, 3 * j);
-          damping.block<3, 3>(3 * slot[i], 3 * slot[j]) += m.damping.block<3, 3>(3 * i, 3 * j);
-        }
+    // Hinge: B = beta g g^T with beta = h^2 k + h c.
+    HingeLinearization hinge;
+    double hinge_beta = 0.0;
+    if (layout.hinge[e] >= 0) {
+      hinge = model.hinge_linearization(layout.hinge[e], x);
+      if (hinge.active) {
+        hinge_beta = h2 * hinge.bend + h * hinge.damping;
+        double gv = 0.0;
+        for (int a = 0; a < 4; ++a) gv += hinge.g.segment<3>(3 * a).dot(vel[a]);
+        const double scale = -h * hinge.bend_force - hinge_beta * gv;
+        for (int a = 0; a < 4; ++a) rhs[a] += scale * hinge.g.segment<3>(3 * a);
       }
     }
+    // Membrane: B_ij = a_u[i] a_u[j] H_u + a_v[i] a_v[j] H_v + s sg_i sg_j^T.
+    MembraneLinearization m;
+    Mat3 big_u, big_v;
+    double shear_beta = 0.0;
+    int corner_of_slot[4] = {-1, -1, -1, -1};
+    const bool has_face = layout.face[e] >= 0;
+    if (has_face) {
+      m = model.membrane_linearization(layout.face[e], x);
+      big_u = h2 * m.stretch_u + h * m.damp_u;
+      big_v = h2 * m.stretch_v + h * m.damp_v;
+      shear_beta = h2 * m.shear + h * m.shear_damping;
+      const auto& slot = layout.face_slot[e];
+      Vec3 vu = Vec3::Zero(), vv = Vec3::Zero();
+      double sv = 0.0;
+      for (int i = 0; i < 3; ++i) {
+        corner_of_slot[slot[i]] = i;
+        vu += m.a_u[i] * vel[slot[i]];
+        vv += m.a_v[i] * vel[slot[i]];
+        sv += m.shear_gradient[i].dot(vel[slot[i]]);
+      }
+      const Vec3 bu = big_u * vu, bv = big_v * vv;
+      for (int i = 0; i < 3; ++i)
+        rhs[slot[i]] -= h * m.gradient[i] + m.a_u[i] * bu + m.a_v[i] * bv + (shear_beta * sv) * m.shear_gradient[i];
+    }
+    double vertex_damping[4] = {0.0, 0.0, 0.0, 0.0};
     for (int a = 0; a < count; ++a)
       if (layout.owned[e] & (1u << a)) {
         const VertexForce p = model.vertex(vs[a], v, wind, kAllForces);
-        force.segment<3>(3 * a) += p.force;
-        damping.block<3, 3>(3 * a, 3 * a).diagonal().array() += p.damping;
+        rhs[a] += h * p.force;
+        vertex_damping[a] = h * p.damping;
       }
-    Vec12 v_local = Vec12::Zero();
-    for (int a = 0; a < count; ++a) v_local.segment<3>(3 * a) = row3(v, vs[a]);
-    const Vec12 rhs = h * (force - h * (stiffness * v_local));
     double* rhs_out = out.rhs.data() + static_cast<size_t>(e) * 12;
-    for (int k = 0; k < 3 * count; ++k) rhs_out[k] = rhs[k];
+    for (int a = 0; a < count; ++a)
+      for (int k = 0; k < 3; ++k) rhs_out[3 * a + k] = rhs[a][k];
     Scalar* blocks = out.blocks.data() + static_cast<size_t>(e) * kElementSlots * 9;
     for (int a = 0; a < count; ++a)
       for (int b = a; b < count; ++b) {
+        Mat3 block = Mat3::Zero();
+        if (hinge.active) block = hinge_beta * hinge.g.segment<3>(3 * a) * hinge.g.segment<3>(3 * b).transpose();
+        const int i = corner_of_slot[a], j = corner_of_slot[b];
+        if (i >= 0 && j >= 0)
+          block += m.a_u[i] * m.a_u[j] * big_u + m.a_v[i] * m.a_v[j] * big_v +
+                   shear_beta * m.shear_gradient[i] * m.shear_gradient[j].transpose();
+        if (a == b) block.diagonal().array() += vertex_damping[a];
         Scalar* dst = blocks + 9 * element_slot(a, b);
-        for (int i = 0; i < 3; ++i)
-          for (int j = 0; j < 3; ++j)
-            dst[3 * i + j] = static_cast<Scalar>(h * h * stiffness(3 * a + i, 3 * b + j) +
-                                                 h * damping(3 * a + i, 3 * b + j));
+        for (int r = 0; r < 3; ++r)
+          for (int c = 0; c < 3; ++c) dst[3 * r + c] = static_cast<Scalar>(block(r, c));
       }
   }
 }

@@ -252,6 +252,59 @@ HingeBlocks ForceModel::hinge(int h, const Positions& x, const Positions& v, uns
   return out;
 }
 
+MembraneLinearization ForceModel::membrane_linearization(int f, const Positions& x) const {
+  MembraneLinearization out;
+  const auto face = mesh_.faces.row(f);
+  const Mat2& dm_inverse = mesh_.rest_dm_inverse[f];
+  const double area = mesh_.rest_area[f];
+  Vec3 w_u, w_v;
+  deformation_columns(row3(x, face[0]), row3(x, face[1]), row3(x, face[2]), dm_inverse, w_u, w_v);
+  const double a_u[3] = {-(dm_inverse(0, 0) + dm_inverse(1, 0)), dm_inverse(0, 0), dm_inverse(1, 0)};
+  const double a_v[3] = {-(dm_inverse(0, 1) + dm_inverse(1, 1)), dm_inverse(0, 1), dm_inverse(1, 1)};
+  const double len_u = w_u.norm(), len_v = w_v.norm();
+  const double shear = w_u.dot(w_v);
+  const double k_shear = materials_.face_shear[f];
+  const StretchCurve c = curve(f);
+  const StretchResponse psi_u = stretch_response(len_u - 1.0, materials_.face_stretch_warp[f], c);
+  const StretchResponse psi_v = stretch_response(len_v - 1.0, materials_.face_stretch_weft[f], c);
+  const Vec3 u_hat = len_u > 0.0 ? Vec3(w_u / len_u) : Vec3::Zero();
+  const Vec3 v_hat = len_v > 0.0 ? Vec3(w_v / len_v) : Vec3::Zero();
+  const Vec3 grad_wu = area * (psi_u.slope * u_hat + k_shear * shear * w_v);
+  const Vec3 grad_wv = area * (psi_v.slope * v_hat + k_shear * shear * w_u);
+  for (int i = 0; i < 3; ++i) {
+    out.a_u[i] = a_u[i];
+    out.a_v[i] = a_v[i];
+    out.gradient[i] = a_u[i] * grad_wu + a_v[i] * grad_wv;
+    out.shear_gradient[i] = w_v * a_u[i] + w_u * a_v[i];
+  }
+  if (len_u > 0.0) out.stretch_u = area * stretch_block(u_hat, len_u, psi_u, true);
+  if (len_v > 0.0) out.stretch_v = area * stretch_block(v_hat, len_v, psi_v, true);
+  out.shear = area * k_shear;
+  const double beta = materials_.face_damping[f];
+  if (beta > 0.0) {
+    out.damp_u = (beta * area * psi_u.curvature) * (u_hat * u_hat.transpose());
+    out.damp_v = (beta * area * psi_v.curvature) * (v_hat * v_hat.transpose());
+    out.shear_damping = beta * out.shear;
+  }
+  return out;
+}
+
+HingeLinearization ForceModel::hinge_linearization(int h, const Positions& x) const {
+  HingeLinearization out;
+  if (materials_.hinge_bend[h] == 0.0) return out;
+  const Hinge& hv = mesh_.hinges[h];
+  V3<double> xd[4], gd[4];
+  for (int i = 0; i < 4; ++i) xd[i] = {x(hv[i], 0), x(hv[i], 1), x(hv[i], 2)};
+  const double theta = hinge_angle(row3(x, hv[0]), row3(x, hv[1]), row3(x, hv[2]), row3(x, hv[3]));
+  dihedral_gradient(xd, gd);
+  for (int i = 0; i < 4; ++i) out.g.segment<3>(3 * i) = Vec3(gd[i].x, gd[i].y, gd[i].z);
+  out.active = true;
+  out.bend = materials_.hinge_bend[h] * mesh_.hinge_weight[h];
+  out.bend_force = out.bend * wrap_angle(theta - mesh_.hinge_rest_angle[h]);
+  out.damping = hinge_damping_[h] > 0.0 ? hinge_damping_[h] * out.bend : 0.0;
+  return out;
+}
+
 VertexForce ForceModel::vertex(int i, const Positions& v, const Vec3& wind, unsigned terms) const {
   const double drag = (terms & kDrag) ? environment_.air_drag : 0.0;
   const double c = drag * mesh_.vertex_rest_area[i];

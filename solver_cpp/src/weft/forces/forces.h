@@ -110,6 +110,28 @@ struct VertexForce {  // gravity + drag; -dF/dv = damping * I
   double damping;
 };
 
+// The same forces and SPD-projected Jacobians as membrane()/hinge() with every term, in their
+// factored form, for the fast assembly (force_elements.cpp), which never forms the 9x9 / 12x12
+// matrices. A hinge's Jacobians have rank one:
+//   force = -bend_force g - damping g (g . v),  stiffness = bend g g^T,  damping = damping g g^T
+// (g = d theta / dx). A membrane's blocks, for its corners i, j:
+//   stiffness_ij = a_u[i] a_u[j] stretch_u + a_v[i] a_v[j] stretch_v + shear sg_i sg_j^T
+//   damping_ij   = a_u[i] a_u[j] damp_u    + a_v[i] a_v[j] damp_v    + shear_damping sg_i sg_j^T
+//   force_i      = -gradient_i - sum_j damping_ij v_j
+// (a_u, a_v: dw_u/dx_i, dw_v/dx_i; sg_i = d(w_u . w_v)/dx_i; area included in every term).
+struct HingeLinearization {
+  bool active = false;  // false: no force and no Jacobian (zero bending stiffness)
+  Vec12 g = Vec12::Zero();
+  double bend_force = 0.0, bend = 0.0, damping = 0.0;
+};
+struct MembraneLinearization {
+  double a_u[3] = {0.0, 0.0, 0.0}, a_v[3] = {0.0, 0.0, 0.0};
+  Vec3 gradient[3];
+  Vec3 shear_gradient[3];
+  Mat3 stretch_u = Mat3::Zero(), stretch_v = Mat3::Zero(), damp_u = Mat3::Zero(), damp_v = Mat3::Zero();
+  double shear = 0.0, shear_damping = 0.0;
+};
+
 class ForceModel {
  public:
   ForceModel(const ClothMesh& mesh, ClothMaterials materials, Environment environment);
@@ -123,6 +145,9 @@ class ForceModel {
   MembraneBlocks membrane(int face, const Positions& x, const Positions& v, unsigned terms, bool project_spd) const;
   HingeBlocks hinge(int hinge, const Positions& x, const Positions& v, unsigned terms, bool project_spd) const;
   VertexForce vertex(int vertex, const Positions& v, const Vec3& wind, unsigned terms) const;
+  // Every term, SPD-projected, factored (see HingeLinearization / MembraneLinearization).
+  MembraneLinearization membrane_linearization(int face, const Positions& x) const;
+  HingeLinearization hinge_linearization(int hinge, const Positions& x) const;
 
   double elastic_energy(const Positions& x, unsigned terms) const;
   double gravity_energy(const Positions& x) const;
