@@ -43,7 +43,9 @@ void ContactConstraints::constrain(const Positions& x, const Positions& v, doubl
     if (!state.collide) continue;
     const Positions& start = step.body_start[b];
     const Positions& end = step.body_end[b];
-    const std::vector<std::pair<int, int>>& candidates = detection.body_pairs(static_cast<int>(b), start, start);
+    // Kept for the proximity list after the solve (same x, same body positions): one traversal.
+    const std::vector<std::pair<int, int>>& candidates =
+        detection.keep_static_body_pairs(static_cast<int>(b), start, kContactBand);
     nearby.clear();
     ordered_append(static_cast<std::int64_t>(candidates.size()), kChunk, detection.threads(), nearby,
                    [&](std::int64_t k, std::vector<Near>& out) {
