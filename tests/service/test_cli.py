@@ -113,8 +113,11 @@ def test_weft_up_serves_and_stops_cleanly(tmp_path: Path) -> None:
     env = {**os.environ, "WEFT_HOME": str(tmp_path / "home"), "PYTHONUNBUFFERED": "1", "COLUMNS": "200"}
     env.pop("WEFT_SERVER", None)
     env.pop("WEFT_API_KEY", None)
+    # Started as a non-interactive shell starts a background job: with SIGINT ignored, which
+    # Python would otherwise inherit (no KeyboardInterrupt); `weft up` must still stop on it.
     up = subprocess.Popen([WEFT, "up", "--workers", "1", "--port", str(port), "--storage", str(tmp_path / "svc")],
-                          env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+                          env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                          preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN))
     try:
         assert up.stdout is not None
         first = up.stdout.readline()

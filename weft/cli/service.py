@@ -351,7 +351,11 @@ def up(
     out.print(f"weft service up: API {stack.url}  (docs {stack.url}/docs)  workers {workers}  storage {stack.storage}")
     out.print("press Ctrl-C to stop", style="dim")
     stopping: list[int] = []
+    # Ctrl-C and SIGTERM both stop the stack. SIGINT gets its handler explicitly: a process
+    # started in the background by a non-interactive shell inherits SIGINT ignored, and Python
+    # then raises no KeyboardInterrupt (`kill -INT` would do nothing).
     signal.signal(signal.SIGTERM, lambda *_: stopping.append(1))
+    signal.signal(signal.SIGINT, lambda *_: stopping.append(1))
     try:
         while not stopping:
             if stack.api_proc is not None and stack.api_proc.poll() is not None:
