@@ -22,19 +22,16 @@ Triangle corners(const Faces& faces, int f, const Positions& x) {
 // side, farther than gap plus the largest corner displacement of A. Every point of a linearly
 // moving triangle stays within its largest corner displacement of its start position, and B's
 // points over the step are convex combinations of its corners, so then A and B stay more than
-// gap apart for the whole step.
-bool plane_separates(const Triangle& as, const Triangle& ae, const Triangle& bs, const Triangle& be, double gap) {
-  Vec3 n = (as[1] - as[0]).cross(as[2] - as[0]);
-  const double norm = n.norm();
-  if (!(norm > 0.0)) return false;
-  n /= norm;
-  double motion = 0.0;
-  for (int k = 0; k < 3; ++k) motion = std::max(motion, (ae[k] - as[k]).norm());
-  const double limit = gap + motion;
+// gap apart for the whole step. A's plane and motion come from SweptPlanes (once per face).
+bool plane_separates(const SweptPlanes& pa, int a, const Triangle& bs, const Triangle& be, double gap) {
+  const Vec3& n = pa.normal[a];
+  if (n == Vec3::Zero()) return false;  // degenerate face: no plane
+  const double limit = gap + pa.motion[a];
+  const Vec3& origin = pa.origin[a];
   double lo = std::numeric_limits<double>::infinity(), hi = -lo;
   for (int k = 0; k < 3; ++k)
     for (const Vec3* p : {&bs[k], &be[k]}) {
-      const double d = n.dot(*p - as[0]);
+      const double d = n.dot(*p - origin);
       lo = std::min(lo, d);
       hi = std::max(hi, d);
     }
@@ -43,14 +40,35 @@ bool plane_separates(const Triangle& as, const Triangle& ae, const Triangle& bs,
 
 // Triangle pairs that cannot come within gap of each other over the step (either plane
 // separates them): cheaper to drop than to expand into up to 15 feature pairs.
-bool triangles_apart(const Triangle& as, const Triangle& ae, const Triangle& bs, const Triangle& be, double gap) {
-  return plane_separates(as, ae, bs, be, gap) || plane_separates(bs, be, as, ae, gap);
+bool triangles_apart(const SweptPlanes& pa, int a, const Faces& fa, const Positions& as, const Positions& ae,
+                     const SweptPlanes& pb, int b, const Faces& fb, const Positions& bs, const Positions& be,
+                     double gap) {
+  return plane_separates(pa, a, corners(fb, b, bs), corners(fb, b, be), gap) ||
+         plane_separates(pb, b, corners(fa, a, as), corners(fa, a, ae), gap);
 }
 
 // Triangle pairs per parallel chunk of the plane test and expansion (collect).
 constexpr std::int64_t kExpandChunk = 512;
 
 }  // namespace
+
+void SweptPlanes::compute(const Faces& faces, const Positions& start, const Positions& end, int threads) {
+  const int count = static_cast<int>(faces.rows());
+  normal.resize(count);
+  origin.resize(count);
+  motion.resize(count);
+#pragma omp parallel for schedule(static) num_threads(threads) if (threads > 1 && count > 4096)
+  for (int f = 0; f < count; ++f) {
+    const Triangle s = corners(faces, f, start), e = corners(faces, f, end);
+    Vec3 n = (s[1] - s[0]).cross(s[2] - s[0]);
+    const double norm = n.norm();
+    normal[f] = norm > 0.0 ? Vec3(n / norm) : Vec3::Zero();
+    origin[f] = s[0];
+    double m = 0.0;
+    for (int k = 0; k < 3; ++k) m = std::max(m, (e[k] - s[k]).norm());
+    motion[f] = m;
+  }
+}
 
 ContactDetection::ContactDetection(const Faces& cloth_faces, const Positions& x, std::vector<char> face_collide,
                                    std::vector<char> face_self, std::vector<double> face_margin,
@@ -181,6 +199,7 @@ void ContactDetection::collect(CollisionStep& step, const ContactFilter& filter,
   const Positions& end = swept ? step.x_end : x;
   const double fraction = swept ? kCcdSeparationFraction : 1.0;
   refit_cloth(x, end, fraction);
+  cloth_planes_.compute(cloth_faces_, x, end, threads_);
   std::vector<FeaturePair>& pairs = swept ? step.pairs : step.proximity_pairs;
   pairs.clear();
   if (any_self_) {
@@ -196,8 +215,8 @@ void ContactDetection::collect(CollisionStep& step, const ContactFilter& filter,
                      const auto [a, b] = scratch_pairs_[k];
                      if (!face_self_[a] || !face_self_[b]) return;
                      const double gap = fraction * std::max(face_margin_[a], face_margin_[b]);
-                     if (triangles_apart(corners(cloth_faces_, a, x), corners(cloth_faces_, a, end),
-                                         corners(cloth_faces_, b, x), corners(cloth_faces_, b, end), gap))
+                     if (triangles_apart(cloth_planes_, a, cloth_faces_, x, end, cloth_planes_, b, cloth_faces_, x, end,
+                                         gap))
                        return;
                      expand_triangle_pair(a, b, -1, filter, out);
                    });
@@ -217,13 +236,14 @@ void ContactDetection::collect(CollisionStep& step, const ContactFilter& filter,
     }
     const std::vector<std::pair<int, int>>& candidates =
         from_kept ? scratch_pairs_ : body_pairs(body, body_start, body_end);
+    SweptPlanes& body_planes = bodies_[b].planes;
+    body_planes.compute(body_faces, body_start, body_end, threads_);
     ordered_append(static_cast<std::int64_t>(candidates.size()), kExpandChunk, threads_, pairs, chunk_pairs_,
                    [&](std::int64_t k, std::vector<FeaturePair>& out) {
                      const auto [cf, bf] = candidates[k];
                      if (!face_collide_[cf]) return;
-                     if (triangles_apart(corners(cloth_faces_, cf, x), corners(cloth_faces_, cf, end),
-                                         corners(body_faces, bf, body_start), corners(body_faces, bf, body_end),
-                                         fraction * face_margin_[cf]))
+                     if (triangles_apart(cloth_planes_, cf, cloth_faces_, x, end, body_planes, bf, body_faces,
+                                         body_start, body_end, fraction * face_margin_[cf]))
                        return;
                      const size_t first = out.size();
                      expand_triangle_pair(cf, bf, body, filter, out);
@@ -241,6 +261,7 @@ void ContactDetection::collect_changed(CollisionStep& step, const ContactFilter&
   const Positions& end = step.x_end;
   const double fraction = kCcdSeparationFraction;
   refit_cloth(x, end, fraction);
+  cloth_planes_.compute(cloth_faces_, x, end, threads_);
   std::vector<FeaturePair>& pairs = step.pairs;
   pairs.clear();
   const int face_count = static_cast<int>(cloth_faces_.rows());
@@ -267,8 +288,7 @@ void ContactDetection::collect_changed(CollisionStep& step, const ContactFilter&
         if (!leaf_culled_top_.empty() && leaf_culled_top_[a] >= 0 && leaf_culled_top_[a] == leaf_culled_top_[b]) return;
         const int lo = std::min(a, b), hi = std::max(a, b);
         const double gap = fraction * std::max(face_margin_[lo], face_margin_[hi]);
-        if (triangles_apart(corners(cloth_faces_, lo, x), corners(cloth_faces_, lo, end),
-                            corners(cloth_faces_, hi, x), corners(cloth_faces_, hi, end), gap))
+        if (triangles_apart(cloth_planes_, lo, cloth_faces_, x, end, cloth_planes_, hi, cloth_faces_, x, end, gap))
           return;
         expand_triangle_pair(lo, hi, -1, filter, out);
       });
@@ -282,13 +302,14 @@ void ContactDetection::collect_changed(CollisionStep& step, const ContactFilter&
     const Positions& body_end = step.body_end[b];
     triangle_boxes(state.faces, body_start, body_end, {}, state.boxes);
     state.tree.refit(state.boxes);
+    SweptPlanes& body_planes = state.planes;
+    body_planes.compute(state.faces, body_start, body_end, threads_);
     ordered_append(changed_count, 16, threads_, pairs, chunk_pairs_, [&](std::int64_t k, std::vector<FeaturePair>& out) {
       const int cf = changed_faces_[k];
       if (!face_collide_[cf]) return;
       state.tree.query(cloth_boxes_[cf], [&](int bf) {
-        if (triangles_apart(corners(cloth_faces_, cf, x), corners(cloth_faces_, cf, end),
-                            corners(state.faces, bf, body_start), corners(state.faces, bf, body_end),
-                            fraction * face_margin_[cf]))
+        if (triangles_apart(cloth_planes_, cf, cloth_faces_, x, end, body_planes, bf, state.faces, body_start,
+                            body_end, fraction * face_margin_[cf]))
           return;
         const size_t first = out.size();
         expand_triangle_pair(cf, bf, body, filter, out);

@@ -21,6 +21,15 @@
 
 namespace weft {
 
+// Per face, over a step: the unit normal of its start plane (zero when degenerate), a point of
+// that plane (corner 0 at the start) and its largest corner displacement. The plane test of the
+// broad phase reads them instead of recomputing them for every triangle pair.
+struct SweptPlanes {
+  std::vector<Vec3> normal, origin;
+  std::vector<double> motion;
+  void compute(const Faces& faces, const Positions& start, const Positions& end, int threads);
+};
+
 class ContactDetection {
  public:
   struct Body {
@@ -30,6 +39,7 @@ class ContactDetection {
     FeatureOwnership own;
     AabbTree tree;
     std::vector<Aabb> boxes;
+    SweptPlanes planes;  // collect(), collect_changed()
   };
 
   // face_collide / face_self: per cloth face; face_margin: per cloth face, its box growth (the
@@ -97,6 +107,7 @@ class ContactDetection {
   FeatureOwnership cloth_own_;
   AabbTree cloth_tree_;
   std::vector<Aabb> cloth_boxes_;
+  SweptPlanes cloth_planes_;  // collect(), collect_changed()
   std::vector<Body> bodies_;
   std::vector<std::pair<int, int>> scratch_pairs_;
   std::vector<std::vector<std::pair<int, int>>> kept_pairs_;  // keep_static_body_pairs(), per body
