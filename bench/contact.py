@@ -97,6 +97,8 @@ def weft_breakdown(telemetry: list[Any]) -> dict[str, Any]:
     substeps = column("substeps").sum()
     out = {f"{name}_per_frame": float(column(name).mean()) for name in (
         "build_seconds", "solve_seconds", "setup_seconds", "collision_seconds", "gia_seconds", "total_seconds",
+        "collision_broad_phase_seconds", "collision_proximity_seconds", "collision_ccd_seconds",
+        "collision_response_seconds",
         "ccd_candidates",
         "broad_phase_pairs", "proximity_pairs", "contact_constraints", "released_contacts", "impact_zones")}
     out["collision_share"] = float(column("collision_seconds").sum() / max(column("total_seconds").sum(), 1e-300))
