@@ -252,8 +252,10 @@ return state
 """
 
 
-# KEYS[1] job hash, KEYS[2] events stream. ARGV: now, job id, payload JSON.
-# A failed or cancelled job goes back to its ready set (weft.scheduler) to continue from its last finished frame:
+# KEYS[1] job hash, KEYS[2] events stream. ARGV: now, job id, payload JSON, the owner's limit of
+# active jobs. A failed or cancelled job goes back to its ready set (weft.scheduler) to continue
+# from its last finished frame, unless its owner already has that many jobs queued or running
+# ('limit', checked in the same script: exact under concurrent submissions):
 # its final event is removed (the stream's last id set back to its newest remaining entry, so
 # the frames still to come keep their ids {index + 1}-0), a 'retried' event follows the frames
 # published so far, and the attempt counters, cancel flag and error start afresh. Returns
@@ -262,6 +264,8 @@ RETRY_LUA = READY_LUA + """
 local state = redis.call('HGET', KEYS[1], 'state')
 if not state then return 'missing' end
 if state ~= 'failed' and state ~= 'cancelled' then return state end
+local active = 'weft:owner:' .. redis.call('HGET', KEYS[1], 'owner') .. ':active'
+if redis.call('SCARD', active) >= tonumber(ARGV[4]) then return 'limit' end
 local frames_done = tonumber(redis.call('HGET', KEYS[1], 'frames_done') or '0')
 local final_id = (tonumber(redis.call('HGET', KEYS[1], 'frames_total')) + 1) .. '-0'
 redis.call('XDEL', KEYS[2], final_id)
@@ -270,7 +274,7 @@ redis.call('XSETID', KEYS[2], #top > 0 and top[1][1] or '0-0')
 redis.call('XADD', KEYS[2], frames_done .. '-*', 'type', 'retried', 'data', ARGV[3])
 redis.call('SMOVE', 'weft:state:' .. state, 'weft:state:queued', ARGV[2])
 redis.call('ZADD', 'weft:queued_since', ARGV[1], ARGV[2])
-redis.call('SADD', 'weft:owner:' .. redis.call('HGET', KEYS[1], 'owner') .. ':active', ARGV[2])
+redis.call('SADD', active, ARGV[2])
 redis.call('HDEL', KEYS[1], 'finished', 'error_reason', 'error_frame', 'failure_kind', 'cancel_requested', 'worker')
 redis.call('HSET', KEYS[1], 'state', 'queued', 'attempts', 0, 'interruptions', 0, 'retried', ARGV[1])
 redis.call('HINCRBY', KEYS[1], 'retries', 1)

@@ -40,8 +40,8 @@ async def job_events(
     if not EVENT_ID.match(start):
         raise ApiError(400, "Last-Event-ID must be an event id like '12-0'")
     limits: StreamLimits = request.app.state.stream_limits
-    release, why_not = limits.acquire(owner)
-    if release is None:
+    release, lease, why_not = await limits.acquire(r, owner)
+    if release is None or lease is None:
         raise ApiError(429, why_not)
     r = request.app.state.stream_redis  # the streams' own pool: they cannot starve other requests
 
@@ -50,6 +50,7 @@ async def job_events(
         yield "retry: 1000\n\n"
         while not await request.is_disconnected():
             try:
+                await lease.renew()  # the key's share counts this stream while it runs
                 found = await r.xread({jobstore.events_key(job_id): last}, count=1000, block=2000)
             except redis.ConnectionError:  # Redis restarting: keep the client, retry
                 yield ": job store unavailable, retrying\n\n"

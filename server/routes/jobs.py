@@ -12,6 +12,7 @@ import anyio
 from fastapi import APIRouter, Depends, Header, Query, Request
 from fastapi.responses import JSONResponse, Response
 from redis.commands.core import AsyncScript
+from redis.exceptions import WatchError
 
 from api_schemas import Shot
 from api_schemas.service import (
@@ -85,16 +86,48 @@ def duplicate_response(request: Request, job_id: str, state: str | None) -> JSON
     return JSONResponse(out.model_dump(), status_code=200, headers={"Location": url})
 
 
+# Deletes an Idempotency-Key's record only if it still names this job (KEYS[1], ARGV[1]).
+RELEASE_IDEMPOTENCY_LUA = """
+if redis.call('GET', KEYS[1]) == ARGV[1] then return redis.call('DEL', KEYS[1]) end
+return 0
+"""
+
+
+def active_limit_error(active: int, settings: ServiceSettings) -> ApiError:
+    return ApiError(429, f"this API key has {active} jobs queued or running, the limit is "
+                         f"{settings.max_active_jobs}: wait for some to finish or cancel some")
+
+
 async def check_active_jobs(r: Any, owner: str, settings: ServiceSettings, idempotency_key: str | None) -> None:
-    """A key's share of the farm: 429 once it has max_active_jobs queued or running (checked
-    before anything is read; a resubmission under a known Idempotency-Key is not a new job).
-    Two submissions racing at the limit can both pass: a soft limit, by one job per API process."""
+    """A key's share of the farm, checked early (before the upload is read; a resubmission under
+    a known Idempotency-Key is not a new job): 429 once it has max_active_jobs queued or
+    running. The exact check is queue_within_limit's, when the job is queued."""
     if idempotency_key and await r.exists(jobstore.idempotency_key(owner, idempotency_key)):
         return
     active = await r.scard(jobstore.active_key(owner))
     if active >= settings.max_active_jobs:
-        raise ApiError(429, f"this API key has {active} jobs queued or running, the limit is "
-                            f"{settings.max_active_jobs}: wait for some to finish or cancel some")
+        raise active_limit_error(active, settings)
+
+
+async def queue_within_limit(r: Any, owner: str, settings: ServiceSettings, record: dict[str, Any],
+                             tags: list[str]) -> None:
+    """Queue the job in one transaction that holds only while the owner's active set is
+    unchanged since it was counted (WATCH): submissions racing at the limit cannot both pass,
+    however many API processes take them. 429 when the key is at its limit."""
+    active_key = jobstore.active_key(owner)
+    async with r.pipeline(transaction=True) as pipe:
+        while True:
+            try:
+                await pipe.watch(active_key)
+                active = await pipe.scard(active_key)
+                if active >= settings.max_active_jobs:
+                    raise active_limit_error(active, settings)
+                pipe.multi()
+                jobstore.queue_new_job(pipe, record, tags)
+                await pipe.execute()
+                return
+            except WatchError:
+                continue  # the set changed (another submission, a job ending): count again
 
 
 SUBMIT_BODY = {
@@ -182,14 +215,14 @@ async def submit_job(
             "frame_last": shot.frame_range[1], "vertices": vertices, "created": jobstore.now(), "attempts": 0,
             "request_hash": request_hash, "priority": priority, "pool": pool, "tags": json.dumps(tags),
         }
-        pipe = r.pipeline(transaction=True)
-        jobstore.queue_new_job(pipe, record, tags)
-        await pipe.execute()
+        await queue_within_limit(r, owner, settings, record, tags)
     except UploadError as exc:
         shutil.rmtree(job_dir, ignore_errors=True)
         raise ApiError(exc.status, exc.problem, [{"field": exc.field, "problem": exc.problem}]) from None
     except BaseException:
         shutil.rmtree(job_dir, ignore_errors=True)
+        if idempotency_key:  # the key must not keep pointing at a job that was never queued
+            await r.eval(RELEASE_IDEMPOTENCY_LUA, 1, jobstore.idempotency_key(owner, idempotency_key), job_id)
         raise
     url = job_url(request, job_id)
     body_out = JobCreated(id=job_id, url=url, state="queued")
@@ -321,14 +354,15 @@ async def retry_job(
     'end' event. A solver failure is deterministic: retrying one fails again at the same frame
     unless the cause was outside the shot (a lost worker, a full disk)."""
     h = await load_job(r, owner, job_id)
-    if h.get("state") in ("failed", "cancelled"):  # a retried job counts towards the key's share
-        await check_active_jobs(r, owner, settings, None)
     payload = json.dumps({"frames_done": int(h.get("frames_done", 0)), "previous_state": h.get("state"),
                           "previous_error": h.get("error_reason") or None})
+    # A retried job counts towards the key's share: the script checks it where it queues.
     result = await retry(
         keys=[jobstore.job_key(job_id), jobstore.events_key(job_id)],
-        args=[jobstore.now(), job_id, payload],
+        args=[jobstore.now(), job_id, payload, settings.max_active_jobs],
     )
+    if result == "limit":
+        raise active_limit_error(await r.scard(jobstore.active_key(owner)), settings)
     if result != "queued":
         raise ApiError(409, f"job {job_id} is {result}; only failed or cancelled jobs can be retried")
     return to_job(request, await load_job(r, owner, job_id))

@@ -85,3 +85,81 @@ def test_a_key_over_its_active_jobs_gets_429(limited: Stack, tmp_path: Path) -> 
         retried = alice.post(f"/v1/jobs/{cancelled}/retry")
         assert retried.status_code == 200 and retried.json()["state"] == "queued"
         assert alice.post("/v1/jobs", json=small_shot("share-full")).status_code == 429
+
+
+def test_submissions_racing_at_the_limit_cannot_all_pass(limited: Stack) -> None:
+    """Eight submissions at once with room for two: the early count sees room for all of them
+    (validation takes a while), the queueing transaction lets exactly two through. A refused
+    submission's Idempotency-Key does not keep pointing at the job that was never queued."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    with client(limited, BOB) as bob:
+        for job in bob.get("/v1/jobs", params={"state": "queued"}).json()["jobs"]:
+            bob.post(f"/v1/jobs/{job['id']}/cancel")
+
+        def submit(i: int) -> httpx.Response:
+            with client(limited, BOB) as c:
+                return c.post("/v1/jobs", json=small_shot(f"race{i}"), headers={"Idempotency-Key": f"race-{i}"})
+
+        with ThreadPoolExecutor(8) as pool:
+            answers = list(pool.map(submit, range(8)))
+        codes = sorted(a.status_code for a in answers)
+        assert codes == [201, 201] + [429] * 6, codes
+        queued = bob.get("/v1/jobs", params={"state": "queued"}).json()["jobs"]
+        assert len(queued) == 2
+        for job in queued:
+            bob.post(f"/v1/jobs/{job['id']}/cancel")
+        refused = [i for i, a in enumerate(answers) if a.status_code == 429]
+        again = [bob.post("/v1/jobs", json=small_shot(f"race{i}"), headers={"Idempotency-Key": f"race-{i}"})
+                 for i in refused]
+        assert sorted(a.status_code for a in again) == [201, 201] + [429] * 4, [a.text for a in again]
+        assert not any(a.json().get("duplicate") for a in again if a.status_code < 300)
+
+
+def test_a_keys_stream_share_holds_across_api_processes(limited: Stack) -> None:
+    """Two API processes on one Redis: the key's streams are counted together (in Redis), not a
+    share per process; a stream's lease outlives no process that stopped renewing it."""
+    import signal
+    import subprocess
+    import sys
+
+    from server.stack import free_port
+
+    port = free_port()
+    second = subprocess.Popen([sys.executable, "-m", "server", "--host", "127.0.0.1", "--port", str(port)],
+                              env=limited.env(), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        other = httpx.Client(base_url=f"http://127.0.0.1:{port}", headers={"Authorization": f"Bearer {ALICE}"},
+                             timeout=30)
+
+        def ready() -> bool:
+            try:
+                return other.get("/readyz").status_code == 200
+            except httpx.HTTPError:
+                return False
+
+        wait_for(ready, timeout=30, what="the second API process")
+        with client(limited, ALICE) as alice, contextlib.ExitStack() as held:
+            for queued in alice.get("/v1/jobs", params={"state": "queued"}).json()["jobs"]:
+                alice.post(f"/v1/jobs/{queued['id']}/cancel")  # another test's queued jobs
+            job = alice.post("/v1/jobs", json=small_shot("streams-two-processes")).json()["id"]
+            first = [held.enter_context(open_stream(alice, job)) for _ in range(2)]
+            assert all(s.status_code == 200 for s in first)
+            third = held.enter_context(open_stream(other, job))
+            assert third.status_code == 200
+            assert_refused(other, job, "3 event streams open, the limit is 3")
+            assert_refused(alice, job, "3 event streams open, the limit is 3")
+            # The second process dies without closing its stream: its lease runs out.
+            second.send_signal(signal.SIGKILL)
+            second.wait()
+
+            def freed() -> bool:
+                with open_stream(alice, job) as again:
+                    return again.status_code == 200
+
+            assert wait_for(freed, timeout=40, interval=1, what="the dead process's stream lease to expire")
+        other.close()
+    finally:
+        if second.poll() is None:
+            second.kill()
+            second.wait()
