@@ -11,7 +11,7 @@ from api_schemas import Shot
 from server.errors import ApiError
 from server.uploads import normalize_asset_path
 from weft.jobstore import ServiceSettings
-from weft.assets import asset_paths
+from weft.assets import asset_paths, shot_hash
 from weft.shot import ShotError, ShotValidationError, parse_shot
 from weft.solver_setup import resolve_scene
 
@@ -73,3 +73,11 @@ def validate_shot(body: bytes, assets: Path, uploaded: set[str], settings: Servi
         raise ApiError(422, f"invalid shot: {problem}", [{"field": "substeps", "problem": problem},
                                                          {"field": "frame_range", "problem": problem}])
     return shot, scene.vertex_count
+
+
+def validate_and_hash(body: bytes, assets: Path, uploaded: set[str],
+                      settings: ServiceSettings) -> tuple[Shot, int, str]:
+    """validate_shot, then the request's hash (SHA-256 of the shot and its assets' bytes, for
+    Idempotency-Key): both in the bounded validation process, never in the API's."""
+    shot, vertices = validate_shot(body, assets, uploaded, settings)
+    return shot, vertices, shot_hash(shot, assets)

@@ -21,9 +21,8 @@ from api_schemas.service import (
 from server.deps import JobId, Owner, Settings, Store, load_job
 from server.errors import ERRORS, ApiError
 from server.uploads import UploadError, read_limited, receive_multipart
-from server.validation import validate_shot
+from server.validation import validate_and_hash
 from weft import jobstore, scheduler
-from weft.assets import shot_hash
 from weft.jobstore import ServiceSettings
 from weft.solver_setup import feature_summary, piece_body_collide, piece_self_collide
 
@@ -196,8 +195,8 @@ async def submit_job(
             body, uploaded = await read_limited(request.stream(), settings.max_json_bytes), set()
         else:
             raise ApiError(415, f"unsupported Content-Type {content_type!r}: use application/json or multipart/form-data")
-        shot, vertices = await request.app.state.validator.run(validate_shot, body, assets, uploaded, settings)
-        request_hash = await anyio.to_thread.run_sync(shot_hash, shot, assets)
+        shot, vertices, request_hash = await request.app.state.validator.run(
+            validate_and_hash, body, assets, uploaded, settings)
         (job_dir / "shot.json").write_text(shot.model_dump_json())
         if idempotency_key:
             idem = jobstore.idempotency_key(owner, idempotency_key)
