@@ -16,6 +16,7 @@ import numpy as np
 
 from api_schemas import ArrayAsset, Shot
 from weft.assets import check_finite, load_array, load_mesh, load_obj_corner_uvs, shot_hash
+from weft.geometry import surface_distance
 from weft.shot import ShotError
 
 
@@ -182,6 +183,7 @@ def resolve_scene(shot: Shot, base_dir: str | Path) -> Scene:
     pin_paths: list[tuple[np.ndarray, np.ndarray]] = []
     body_pin_vertices: list[int] = []
     body_pin_bodies: list[int] = []
+    pin_groups: list[tuple[str, np.ndarray, int, np.ndarray]] = []  # (field, global vertices, piece, its vertices)
     body_index = {b.name: i for i, b in enumerate(shot.bodies)}
     vertex_offset = face_offset = 0
     for i, piece in enumerate(shot.cloth):
@@ -232,6 +234,7 @@ def resolve_scene(shot: Shot, base_dir: str | Path) -> Scene:
                     f"vertex {indices[k]} out of range (mesh has {len(vertices)} vertices)",
                 )
             pin_field = f"{where}.pins[{j}]"
+            pin_groups.append((pin_field, indices + vertex_offset, i, indices))
             if pin.release is not None:
                 duration = (shot.frame_range[1] - shot.frame_range[0]) / shot.fps
                 if pin.release > duration:
@@ -273,6 +276,7 @@ def resolve_scene(shot: Shot, base_dir: str | Path) -> Scene:
         raise ShotError("cloth.pins", "a vertex is pinned more than once")
 
     bodies = [_load_body(base_dir, shot, i) for i in range(len(shot.bodies))]
+    check_pin_room(shot, np.concatenate(positions), pin_groups, bodies)
     all_flat = all(p.rest.kind == "uv" for p in shot.cloth)
     # Pieces with a flat (uv) rest shape have no 3D rest positions: NaN rows tell the solver
     # that their rest bending angles are zero.
@@ -294,6 +298,38 @@ def resolve_scene(shot: Shot, base_dir: str | Path) -> Scene:
         pin_paths=pin_paths,
         bodies=bodies,
     )
+
+
+def check_pin_room(shot: Shot, positions: np.ndarray, pin_groups: list[tuple[str, np.ndarray, int, np.ndarray]],
+                   bodies: list[BodyArrays]) -> None:
+    """Offsets that leave no room: a pin that holds cloth closer to a colliding body, at the first
+    frame, than the cloth must keep from it (its thickness plus the body's collision_offset).
+    The pin holds its vertices there, collisions push the cloth out, and neither can give: a
+    ShotError naming the pin, the body and both distances."""
+    if not pin_groups or not bodies:
+        return
+    collides = piece_body_collide(shot)
+    for pin_field, vertices, piece, local in pin_groups:
+        if not collides[piece]:
+            continue
+        points = positions[vertices]
+        for k, (spec, body) in enumerate(zip(shot.bodies, bodies)):
+            if not spec.collide:
+                continue
+            keep = shot.cloth[piece].material.thickness + spec.collision_offset
+            near = surface_distance(points, np.asarray(body.frames[0], dtype=np.float64), body.faces)
+            closest = int(np.argmin(near))
+            # A pin placed exactly at the distance (to rounding) is fine.
+            if near[closest] < keep * (1.0 - 1e-6):
+                inside = int(np.sum(near < keep * (1.0 - 1e-6)))
+                offset = f" + bodies[{k}].collision_offset {spec.collision_offset * 1000:g} mm" \
+                    if spec.collision_offset else ""
+                raise ShotError(
+                    pin_field, f"{inside} pinned vertices are held closer to body {spec.name!r} than the cloth keeps "
+                    f"from it ({keep * 1000:.3g} mm = material.thickness {shot.cloth[piece].material.thickness * 1000:g} "
+                    f"mm{offset}); its vertex {int(local[closest])} is "
+                    f"{near[closest] * 1000:.3g} mm away at the first frame: the pin leaves the cloth no room. "
+                    "Move the pinned vertices out, or lower the thickness or the offset")
 
 
 def _rest_array(base_dir: Path, value: Any, field_path: str) -> np.ndarray:

@@ -84,3 +84,32 @@ def test_a_pin_cannot_follow_a_body_and_a_path() -> None:
     shot = held_sheet(animation=np.zeros((14, 2, 3)).tolist(), body="hand")
     with pytest.raises(Exception, match="either a body or its own animation"):
         parse_shot(shot)
+
+
+def sheet_on_a_block(gap: float, **body: Any) -> dict[str, Any]:
+    """The held sheet with a block whose top is `gap` below its pinned corner 0 (at the origin)."""
+    from scenes.builders import inline_mesh
+    from scenes.collision import box_mesh
+
+    shot = held_sheet()
+    vertices, faces = box_mesh(extents=(0.1, 0.1, 0.1), centre=(0.0, -0.05 - gap, 0.0))
+    shot["bodies"] = [{"name": "block", "mesh": inline_mesh(vertices, faces), **body}]
+    shot["cloth"][0]["material"] = {"thickness": 0.002}
+    return shot
+
+
+def test_offsets_that_leave_no_room_are_refused(tmp_path: Path) -> None:
+    """A pin 3 mm above a block: room for a 2 mm cloth, none once the block asks for 5 mm more."""
+    resolve_scene(parse_shot(sheet_on_a_block(0.003)), tmp_path)  # 3 mm >= 2 mm
+    resolve_scene(parse_shot(sheet_on_a_block(0.002)), tmp_path)  # exactly the thickness: room enough
+    with pytest.raises(ShotError) as error:
+        resolve_scene(parse_shot(sheet_on_a_block(0.003, collision_offset=0.005)), tmp_path)
+    message = str(error.value)
+    assert error.value.field == "cloth[0].pins[0]", message
+    assert "'block'" in message and "7 mm" in message and "collision_offset 5 mm" in message, message
+    assert "its vertex 0 is 3 mm away" in message, message
+    # A body that does not collide, or a piece that does not, leaves the pin alone.
+    resolve_scene(parse_shot(sheet_on_a_block(0.003, collision_offset=0.005, collide=False)), tmp_path)
+    no_collision = sheet_on_a_block(0.003, collision_offset=0.005)
+    no_collision["cloth"][0]["collide"] = False
+    resolve_scene(parse_shot(no_collision), tmp_path)
