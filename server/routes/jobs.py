@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
 import re
 import shutil
@@ -221,7 +222,8 @@ async def submit_job(
     except BaseException:
         shutil.rmtree(job_dir, ignore_errors=True)
         if idempotency_key:  # the key must not keep pointing at a job that was never queued
-            await r.eval(RELEASE_IDEMPOTENCY_LUA, 1, jobstore.idempotency_key(owner, idempotency_key), job_id)
+            with contextlib.suppress(Exception):  # best effort: never hide the error itself
+                await r.eval(RELEASE_IDEMPOTENCY_LUA, 1, jobstore.idempotency_key(owner, idempotency_key), job_id)
         raise
     url = job_url(request, job_id)
     body_out = JobCreated(id=job_id, url=url, state="queued")
