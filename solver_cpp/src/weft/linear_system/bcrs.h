@@ -9,9 +9,9 @@
 // fixed-only routine and the others with one that also walks the transient blocks; which rows
 // are which is decided once per step (set_transient). Rows are unrolled four blocks per
 // iteration with the quotient/remainder precomputed per row. With float32 values the multiply
-// first rounds x to float32 and each block is three 4-wide SSE multiply-adds of its columns
-// (separate multiply and add, no FMA; per-row accumulation in a fixed order), so the product is
-// bitwise reproducible for any thread count.
+// first rounds x to float32 and each block is three 4-wide SSE products of its columns, summed
+// pairwise within each group of four blocks (separate multiply and add, no FMA; per-row
+// accumulation in a fixed order), so the product is bitwise reproducible for any thread count.
 #pragma once
 
 #include <Eigen/Dense>
@@ -152,17 +152,21 @@ class BcrsMatrix {
       return idx[k];
   }
 
-  // float32: y (4 lanes, the 4th ignored) += a * x for a column-major block; xc: the column's
-  // x rounded to float32, 4 lanes (x_float_). Reads one float past the block's last column
-  // (values_ is padded).
-  static inline __m128 accumulate4(const float* a, const float* xc, __m128 y) {
+  // float32: a * x (4 lanes, the 4th ignored) for a column-major block; xc: the column's x
+  // rounded to float32, 4 lanes (x_float_). Reads one float past the block's last column
+  // (values_ is padded). The three column products are summed as (c0 + c1) + c2.
+  static inline __m128 block_product4(const float* a, const float* xc) {
     const __m128 xv = _mm_loadu_ps(xc);
-    y = _mm_add_ps(y, _mm_mul_ps(_mm_loadu_ps(a), _mm_shuffle_ps(xv, xv, 0x00)));
-    y = _mm_add_ps(y, _mm_mul_ps(_mm_loadu_ps(a + 3), _mm_shuffle_ps(xv, xv, 0x55)));
-    return _mm_add_ps(y, _mm_mul_ps(_mm_loadu_ps(a + 6), _mm_shuffle_ps(xv, xv, 0xAA)));
+    const __m128 c0 = _mm_mul_ps(_mm_loadu_ps(a), _mm_shuffle_ps(xv, xv, 0x00));
+    const __m128 c1 = _mm_mul_ps(_mm_loadu_ps(a + 3), _mm_shuffle_ps(xv, xv, 0x55));
+    const __m128 c2 = _mm_mul_ps(_mm_loadu_ps(a + 6), _mm_shuffle_ps(xv, xv, 0xAA));
+    return _mm_add_ps(_mm_add_ps(c0, c1), c2);
   }
 
-  // One row of the fixed part, four blocks per iteration, then the precomputed remainder.
+  // One row of the fixed part, four blocks per iteration, then the precomputed remainder. With
+  // float32 values the four block products of an iteration are summed pairwise before they
+  // join the row's sum ((b0 + b1) + (b2 + b3)), so the row's dependency chain is one add per
+  // four blocks instead of three per block; the order is fixed per row (any thread count).
   template <class Index>
   inline void fixed_row(const Index* idx, int r, const double* x, double& y0, double& y1, double& y2) const {
     int k = row_start_[r];
@@ -171,15 +175,16 @@ class BcrsMatrix {
       const float* xf = x_float_.data();
       __m128 y = _mm_setzero_ps();
       for (int q = quads_[r]; q > 0; --q, k += 4, a += 36) {
-        y = accumulate4(a, xf + 4 * column_of(idx, k, r), y);
-        y = accumulate4(a + 9, xf + 4 * column_of(idx, k + 1, r), y);
-        y = accumulate4(a + 18, xf + 4 * column_of(idx, k + 2, r), y);
-        y = accumulate4(a + 27, xf + 4 * column_of(idx, k + 3, r), y);
+        const __m128 b01 = _mm_add_ps(block_product4(a, xf + 4 * column_of(idx, k, r)),
+                                      block_product4(a + 9, xf + 4 * column_of(idx, k + 1, r)));
+        const __m128 b23 = _mm_add_ps(block_product4(a + 18, xf + 4 * column_of(idx, k + 2, r)),
+                                      block_product4(a + 27, xf + 4 * column_of(idx, k + 3, r)));
+        y = _mm_add_ps(y, _mm_add_ps(b01, b23));
       }
       switch (remainders_[r]) {
-        case 3: y = accumulate4(a + 18, xf + 4 * column_of(idx, k + 2, r), y); [[fallthrough]];
-        case 2: y = accumulate4(a + 9, xf + 4 * column_of(idx, k + 1, r), y); [[fallthrough]];
-        case 1: y = accumulate4(a, xf + 4 * column_of(idx, k, r), y); break;
+        case 3: y = _mm_add_ps(y, block_product4(a + 18, xf + 4 * column_of(idx, k + 2, r))); [[fallthrough]];
+        case 2: y = _mm_add_ps(y, block_product4(a + 9, xf + 4 * column_of(idx, k + 1, r))); [[fallthrough]];
+        case 1: y = _mm_add_ps(y, block_product4(a, xf + 4 * column_of(idx, k, r))); break;
         default: break;
       }
       alignas(16) float lanes[4];
