@@ -1,4 +1,5 @@
-"""`weft validate`, `weft run`, `weft info`: a shot on this machine, into an HDF5 cache."""
+"""`weft validate`, `weft run`, `weft info`, `weft materials`: a shot on this machine, into an HDF5
+cache, and the material presets it may name."""
 
 from __future__ import annotations
 
@@ -84,15 +85,30 @@ def run(
             rate=f"{record.wall_seconds:.3f} s/frame",
         )
 
-    def interrupt(signum: int, _frame: object) -> None:
-        raise RunInterrupted(signal.Signals(signum).name)
+    # SIGTERM, SIGHUP and Ctrl-C stop the run after the frame in progress: the handler only
+    # records the signal and the runner raises RunInterrupted between frames (should_stop), so
+    # the cache is closed readable. Raising from the handler itself could land in a weakref
+    # callback (h5py's), where Python prints the exception and drops it: the stop was lost. A
+    # second signal raises at once (a frame that never ends).
+    stop_reason: list[str] = []
 
-    for signum in (signal.SIGTERM, signal.SIGHUP):  # closed like Ctrl-C: the cache stays readable
+    def interrupt(signum: int, _frame: object) -> None:
+        name = "SIGINT" if signum == signal.SIGINT else signal.Signals(signum).name
+        if stop_reason:
+            raise RunInterrupted(name)
+        stop_reason.append(name)
+
+    def should_stop() -> bool:
+        if stop_reason:
+            raise RunInterrupted(stop_reason[0])
+        return False
+
+    for signum in (signal.SIGTERM, signal.SIGHUP, signal.SIGINT):
         signal.signal(signum, interrupt)
     try:
         with progress:
             task = progress.add_task(scene.shot.name, total=runner.frames_total, rate="")
-            summary = runner.run(on_frame=on_frame)
+            summary = runner.run(on_frame=on_frame, should_stop=should_stop)
     except (RunInterrupted, KeyboardInterrupt) as exc:
         reason = exc.reason if isinstance(exc, RunInterrupted) else "SIGINT"
         fail(f"stopped by {reason}: {output} is closed with the frames finished so far; continue it with "
@@ -154,3 +170,28 @@ def info(
     for key, value in summary.items():
         table.add_row(key, json.dumps(value) if isinstance(value, (dict, list)) else str(value))
     out.print(table)
+
+
+@app.command()
+def materials(
+    as_json: Annotated[bool, typer.Option("--json", help="Machine-readable output")] = False,
+) -> None:
+    """The material presets (`material: {preset: NAME}`): their values and where they come from."""
+    from api_schemas.materials import PRESET_FIELDS, PRESETS
+
+    if as_json:
+        out.print_json(json.dumps({name: {"fabric": p.fabric, "measured": p.measured, "source": p.source,
+                                          **p.values} for name, p in PRESETS.items()}))
+        return
+    table = Table(title="weft material presets (SI units; fields not listed keep Material's defaults)")
+    table.add_column("preset")
+    table.add_column("fabric")
+    for name in PRESET_FIELDS:
+        table.add_column(name, justify="right")
+    table.add_column("basis")
+    for name, preset in PRESETS.items():
+        table.add_row(name, preset.fabric, *(f"{preset.values[f]:.4g}" for f in PRESET_FIELDS),
+                      "measured" if preset.measured else "estimate")
+    out.print(table)
+    for name, preset in PRESETS.items():
+        out.print(f"[bold]{name}[/bold]: {preset.source}")
