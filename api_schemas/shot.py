@@ -12,9 +12,11 @@ same field paths.
 
 from __future__ import annotations
 
-from typing import Annotated, Literal
+from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+
+from api_schemas.materials import PresetName, apply_preset
 
 SHOT_FORMAT_VERSION = 1
 
@@ -109,8 +111,12 @@ class RestShape(StrictModel):
 
 
 class Material(StrictModel):
-    """Cloth material. Stiffnesses are membrane moduli (energy per rest area per unit strain^2)."""
+    """Cloth material. Stiffnesses are membrane moduli (energy per rest area per unit strain^2).
+    A ``preset`` (api_schemas/materials.py) fills the fabric fields the document leaves out."""
 
+    preset: PresetName | None = Field(
+        None, description="Named fabric (cotton, denim: measured, Wang et al. 2011; silk, leather: estimates) whose "
+        "density, stretch, shear and bend fill the fields not given here; `weft materials` lists them with sources.")
     density: PositiveFloat = Field(0.15, description="Areal density, kg/m^2.", le=100.0)
     stretch_warp: PositiveFloat = Field(2000.0, description="Stretch stiffness along u (warp), N/m.")
     stretch_weft: PositiveFloat = Field(2000.0, description="Stretch stiffness along v (weft), N/m.")
@@ -126,6 +132,11 @@ class Material(StrictModel):
         10.0, ge=1.0, le=1e4, description="Biphasic stretch: stiffness past the knee over stiffness before it.")
     thickness: PositiveFloat = Field(0.002, description="Collision thickness, m.", le=1.0)
     friction: NonNegativeFloat = Field(0.3, description="Coulomb friction coefficient.", le=10.0)
+
+    @model_validator(mode="before")
+    @classmethod
+    def _fill_from_preset(cls, data: Any) -> Any:
+        return apply_preset(data)
 
 
 class Pin(StrictModel):

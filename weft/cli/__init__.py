@@ -1,6 +1,6 @@
 """The `weft` command line: one module per command group, put together here.
 
-- ``weft.cli.local``: validate, run, info (a shot on this machine, into an HDF5 cache)
+- ``weft.cli.local``: validate, run, info, materials (a shot on this machine, into an HDF5 cache)
 - ``weft.cli.export``: export (a cache to USD or an OBJ sequence)
 - ``weft.cli.service``: up, submit, status, jobs, fetch, cancel, demo (the simulation service)
 - ``weft.cli.benchmarks``: ``weft bench ...`` (imports the ``bench`` package when it runs)
