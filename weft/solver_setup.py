@@ -28,6 +28,21 @@ class BodyArrays:
 
 
 @dataclass
+class PinGroup:
+    """One pins[] entry as check_pin_room sees it: its field path, its vertices (global and in
+    its piece), its piece, how it holds them (attached to a body, a path of positions per
+    keyframe) and its release time."""
+
+    field: str
+    vertices: np.ndarray
+    piece: int
+    local: np.ndarray
+    attached: bool = False
+    release: float | None = None
+    path: np.ndarray | None = None
+
+
+@dataclass
 class PieceArrays:
     name: str
     vertex_offset: int
@@ -183,7 +198,7 @@ def resolve_scene(shot: Shot, base_dir: str | Path) -> Scene:
     pin_paths: list[tuple[np.ndarray, np.ndarray]] = []
     body_pin_vertices: list[int] = []
     body_pin_bodies: list[int] = []
-    pin_groups: list[tuple[str, np.ndarray, int, np.ndarray]] = []  # (field, global vertices, piece, its vertices)
+    pin_groups: list[PinGroup] = []
     body_index = {b.name: i for i, b in enumerate(shot.bodies)}
     vertex_offset = face_offset = 0
     for i, piece in enumerate(shot.cloth):
@@ -234,7 +249,9 @@ def resolve_scene(shot: Shot, base_dir: str | Path) -> Scene:
                     f"vertex {indices[k]} out of range (mesh has {len(vertices)} vertices)",
                 )
             pin_field = f"{where}.pins[{j}]"
-            pin_groups.append((pin_field, indices + vertex_offset, i, indices))
+            group = PinGroup(pin_field, indices + vertex_offset, i, indices, attached=pin.body is not None,
+                             release=pin.release)
+            pin_groups.append(group)
             if pin.release is not None:
                 duration = (shot.frame_range[1] - shot.frame_range[0]) / shot.fps
                 if pin.release > duration:
@@ -253,6 +270,7 @@ def resolve_scene(shot: Shot, base_dir: str | Path) -> Scene:
                     raise ShotError(pin_field + ".animation[0]", f"the first frame is {offset:.3g} m from where the "
                                     "pinned vertices start: a pin path starts at its vertices")
                 pin_paths.append((indices + vertex_offset, path))
+                group.path = path
             if pin.body is None:
                 fixed_pins.extend((indices + vertex_offset).tolist())
             else:
@@ -300,36 +318,57 @@ def resolve_scene(shot: Shot, base_dir: str | Path) -> Scene:
     )
 
 
-def check_pin_room(shot: Shot, positions: np.ndarray, pin_groups: list[tuple[str, np.ndarray, int, np.ndarray]],
-                   bodies: list[BodyArrays]) -> None:
-    """Offsets that leave no room: a pin that holds cloth closer to a colliding body, at the first
-    frame, than the cloth must keep from it (its thickness plus the body's collision_offset).
-    The pin holds its vertices there, collisions push the cloth out, and neither can give: a
-    ShotError naming the pin, the body and both distances."""
+def check_pin_room(shot: Shot, positions: np.ndarray, pin_groups: list[PinGroup], bodies: list[BodyArrays]) -> None:
+    """Offsets that leave no room: a pin that holds cloth closer to a colliding body, at any frame
+    while it holds, than the cloth must keep from it (its thickness plus the body's
+    collision_offset). The pin holds its vertices there, collisions push the cloth out, and
+    neither can give: a ShotError naming the pin, the body, the frame and both distances.
+
+    Checked at every keyframe the pin holds (until its release) where the pin's targets or the
+    body moved; a pin attached to a body moves with it, so it is checked at the first frame
+    only. Keyframes where no pinned vertex is within reach of the body's box are skipped before
+    any exact distance is computed."""
     if not pin_groups or not bodies:
         return
     collides = piece_body_collide(shot)
-    for pin_field, vertices, piece, local in pin_groups:
-        if not collides[piece]:
+    dt = 1.0 / shot.fps
+    for group in pin_groups:
+        if not collides[group.piece]:
             continue
-        points = positions[vertices]
+        # Keyframe f is held when the frame that ends there starts before the release.
+        held = shot.frame_count if group.release is None else \
+            int(np.sum((np.arange(shot.frame_count) - 1) * dt < group.release - 1e-9 * dt))
         for k, (spec, body) in enumerate(zip(shot.bodies, bodies)):
             if not spec.collide:
                 continue
-            keep = shot.cloth[piece].material.thickness + spec.collision_offset
-            near = surface_distance(points, np.asarray(body.frames[0], dtype=np.float64), body.faces)
-            closest = int(np.argmin(near))
-            # A pin placed exactly at the distance (to rounding) is fine.
-            if near[closest] < keep * (1.0 - 1e-6):
-                inside = int(np.sum(near < keep * (1.0 - 1e-6)))
-                offset = f" + bodies[{k}].collision_offset {spec.collision_offset * 1000:g} mm" \
-                    if spec.collision_offset else ""
-                raise ShotError(
-                    pin_field, f"{inside} pinned vertices are held closer to body {spec.name!r} than the cloth keeps "
-                    f"from it ({keep * 1000:.3g} mm = material.thickness {shot.cloth[piece].material.thickness * 1000:g} "
-                    f"mm{offset}); its vertex {int(local[closest])} is "
-                    f"{near[closest] * 1000:.3g} mm away at the first frame: the pin leaves the cloth no room. "
-                    "Move the pinned vertices out, or lower the thickness or the offset")
+            keep = shot.cloth[group.piece].material.thickness + spec.collision_offset
+            frames = [0]
+            if not group.attached:
+                body_moves = body.frames.strides[0] != 0 and held > 1 and bool(np.any(body.frames[1:held] != body.frames[0]))
+                if body_moves or group.path is not None:
+                    frames = range(held)
+            for f in frames:
+                points = positions[group.vertices] if group.path is None else group.path[f]
+                x = np.asarray(body.frames[f], dtype=np.float64)
+                reach = (points >= x.min(axis=0) - keep).all(axis=1) & (points <= x.max(axis=0) + keep).all(axis=1)
+                if not reach.any():
+                    continue
+                near = np.full(len(points), np.inf)
+                near[reach] = surface_distance(points[reach], x, body.faces)
+                closest = int(np.argmin(near))
+                # A pin placed exactly at the distance (to rounding) is fine.
+                if near[closest] < keep * (1.0 - 1e-6):
+                    inside = int(np.sum(near < keep * (1.0 - 1e-6)))
+                    offset = f" + bodies[{k}].collision_offset {spec.collision_offset * 1000:g} mm" \
+                        if spec.collision_offset else ""
+                    when = "at the first frame" if f == 0 else f"at frame {shot.frame_range[0] + f}"
+                    raise ShotError(
+                        group.field, f"{inside} pinned vertices are held closer to body {spec.name!r} than the cloth "
+                        f"keeps from it ({keep * 1000:.3g} mm = material.thickness "
+                        f"{shot.cloth[group.piece].material.thickness * 1000:g} mm{offset}); its vertex "
+                        f"{int(group.local[closest])} is {near[closest] * 1000:.3g} mm away {when}: the pin leaves the "
+                        "cloth no room. Move the pinned vertices (or their path) out, or lower the thickness or the "
+                        "offset")
 
 
 def _rest_array(base_dir: Path, value: Any, field_path: str) -> np.ndarray:

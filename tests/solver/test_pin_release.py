@@ -113,3 +113,37 @@ def test_offsets_that_leave_no_room_are_refused(tmp_path: Path) -> None:
     no_collision = sheet_on_a_block(0.003, collision_offset=0.005)
     no_collision["cloth"][0]["collide"] = False
     resolve_scene(parse_shot(no_collision), tmp_path)
+
+
+def corner_path(drop: float, frames: int = 14) -> list:
+    """Both pinned corners (0 at the origin, 7 at x = 0.4) moving straight down by `drop` over
+    the shot, one position per keyframe."""
+    start = np.array([[0.0, 0.0, 0.0], [0.4, 0.0, 0.0]])
+    steps = np.linspace(0.0, drop, frames)
+    return (start[None] - steps[:, None, None] * np.array([0.0, 1.0, 0.0])).tolist()
+
+
+def test_no_room_is_looked_for_at_every_frame_a_pin_holds(tmp_path: Path) -> None:
+    """10 mm above the block at the first frame; a path that ends 1 mm above it, or a block that
+    rises to 1 mm below the pin, leaves no room at a later frame; released first, it does."""
+    resolve_scene(parse_shot(sheet_on_a_block(0.010)), tmp_path)
+    lowered = sheet_on_a_block(0.010)
+    lowered["cloth"][0]["pins"][0]["animation"] = corner_path(0.009)
+    with pytest.raises(ShotError) as error:
+        resolve_scene(parse_shot(lowered), tmp_path)
+    message = str(error.value)
+    assert error.value.field == "cloth[0].pins[0]" and "'block'" in message, message
+    # The path crosses 2 mm (the thickness) 8/9 of the way down: keyframe 12 (frame 13).
+    assert "its vertex 0 is 1.69 mm away at frame 13" in message, message
+    lowered["cloth"][0]["pins"][0]["release"] = 0.4  # let go at frame 11 (0.417 s), before it gets there
+    resolve_scene(parse_shot(lowered), tmp_path)
+
+    from scenes.collision import box_mesh
+
+    rising = sheet_on_a_block(0.010)
+    vertices, _ = box_mesh(extents=(0.1, 0.1, 0.1), centre=(0.0, -0.05 - 0.010, 0.0))
+    lift = np.linspace(0.0, 0.009, 14)[:, None, None] * np.array([0.0, 1.0, 0.0])
+    np.save(tmp_path / "rise.npy", vertices[None] + lift)
+    rising["bodies"][0]["animation"] = {"path": "rise.npy"}
+    with pytest.raises(ShotError, match="its vertex 0 is 1.69 mm away at frame 13"):
+        resolve_scene(parse_shot(rising), tmp_path)
