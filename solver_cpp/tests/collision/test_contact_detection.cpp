@@ -8,6 +8,7 @@
 
 #include "support/grid_faces.h"
 #include "weft/collision/contact_detection.h"
+#include "weft/collision/contact_impulse.h"
 
 namespace weft {
 namespace {
@@ -48,6 +49,33 @@ TEST(ContactDetection, OneTrianglePairExpandsIntoEachFeaturePairOnce) {
   EXPECT_TRUE(pairs.empty());
 }
 
+TEST(ContactDetection, ASweepListsOnlyTheFeaturePairsWhoseBoxesComeWithinItsGap) {
+  // Triangle B overlaps the corner (1, 0) of triangle A from the side, 1 mm above it.
+  Faces faces(2, 3);
+  faces << 0, 1, 2, 3, 4, 5;
+  Positions x(6, 3);
+  x << 0, 0, 0, 1, 0, 0, 0, 1, 0, 0.9, 0, 0.001, 1.9, 0, 0.001, 0.9, 1, 0.001;
+  const ContactDetection detection(faces, x, {1, 1}, {1, 1}, {0.002, 0.002}, {}, {});
+  std::vector<FeaturePair> all, near;
+  detection.expand_triangle_pair(0, 1, -1, ContactFilter(), all);
+  const double gap = 0.002;
+  const ContactDetection::Sweep sweep{&x, &x, &x, &x, gap};
+  detection.expand_triangle_pair(0, 1, -1, ContactFilter(), near, &sweep);
+  ASSERT_EQ(all.size(), 15u);
+  // Vertex 1 against B, vertices 3 and 5 against A; A's edges (0,1) and (1,2) against B's three.
+  EXPECT_EQ(near.size(), 9u);
+  // Exactly the pairs that the proximity test's first check (the same boxes) lets through,
+  // in the same order.
+  std::vector<FeaturePair> expected;
+  for (const FeaturePair& p : all) {
+    std::array<Vec3, 4> s;
+    for (int i = 0; i < 4; ++i) s[i] = row3(x, p.point[i]);
+    if (boxes_within(s, s, p.edge_edge, gap)) expected.push_back(p);
+  }
+  ASSERT_EQ(near.size(), expected.size());
+  for (size_t k = 0; k < near.size(); ++k) EXPECT_EQ(near[k].point, expected[k].point);
+}
+
 TEST(ContactDetection, EachListLooksAsFarAsItsTestNeeds) {
   const TwoTriangles t;
   ContactDetection detection = t.detection();
@@ -55,9 +83,11 @@ TEST(ContactDetection, EachListLooksAsFarAsItsTestNeeds) {
   CollisionStep step;
   step.begin(t.x, v, 0.01);
   CollisionTelemetry frame;
-  // 1 mm apart, thickness 2 mm: a proximity pair, expanded once.
+  // 1 mm apart, thickness 2 mm: a proximity triangle pair, expanded once into the feature
+  // pairs whose boxes come within the thickness: B's vertex 3 against A, A's edge (1, 2)
+  // against B's three edges (B is shifted 0.1 m sideways: A's other features are farther).
   detection.collect(step, ContactFilter(), frame, false);
-  EXPECT_EQ(step.proximity_pairs.size(), 15u);
+  EXPECT_EQ(step.proximity_pairs.size(), 4u);
   // At rest, 1 mm apart, CCD looks only within its minimum separation (0.1 mm): no candidate.
   detection.collect(step, ContactFilter(), frame, true);
   EXPECT_TRUE(step.pairs.empty());
@@ -65,8 +95,8 @@ TEST(ContactDetection, EachListLooksAsFarAsItsTestNeeds) {
   v.bottomRows(3).col(2).setConstant(-0.2);
   step.begin(t.x, v, 0.01);
   detection.collect(step, ContactFilter(), frame, true);
-  EXPECT_EQ(step.pairs.size(), 15u);
-  EXPECT_EQ(frame.broad_phase_pairs, 30);
+  EXPECT_EQ(step.pairs.size(), 4u);  // straight down: the same four come within 0.1 mm
+  EXPECT_EQ(frame.broad_phase_pairs, 8);
   // Far apart: nothing.
   Positions far = t.x;
   far.col(2).tail(3).setConstant(1.0);

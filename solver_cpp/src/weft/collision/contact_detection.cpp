@@ -146,21 +146,68 @@ const std::vector<std::pair<int, int>>& ContactDetection::self_intersection_cand
   return scratch_pairs_;
 }
 
+namespace {
+
+// Box of the points over the step (start and end; the same object: static).
+Aabb point_box(const Positions& start, const Positions& end, int p) {
+  Aabb box;
+  box.expand(row3(start, p));
+  if (&end != &start) box.expand(row3(end, p));
+  return box;
+}
+
+template <std::size_t N>
+Aabb points_box(const Positions& start, const Positions& end, const std::array<int, N>& points) {
+  Aabb box;
+  for (int p : points) box.expand(point_box(start, end, p));
+  return box;
+}
+
+}  // namespace
+
 void ContactDetection::expand_triangle_pair(int cf, int of, int body, const ContactFilter& filter,
-                                            std::vector<FeaturePair>& out) const {
+                                            std::vector<FeaturePair>& out, const Sweep* sweep) const {
+  // Boxes for the sweep's test: the cloth face's and its edges' grown by the gap, the other
+  // face's and its edges' as they are (a pair passes when the grown box of one feature overlaps
+  // the other's; feature boxes are within their face's).
+  const bool boxed = sweep != nullptr && !(body >= 0 && filter.pinched_face(cf, body));
+  Aabb cloth_grown, other_face;
+  if (boxed) {
+    cloth_grown = points_box(*sweep->cloth_start, *sweep->cloth_end,
+                             std::array<int, 3>{cloth_faces_(cf, 0), cloth_faces_(cf, 1), cloth_faces_(cf, 2)});
+    cloth_grown.inflate(sweep->gap);
+  }
+  auto cloth_point_near = [&](int v) {  // cloth vertex v against the other face
+    if (!boxed) return true;
+    Aabb box = point_box(*sweep->cloth_start, *sweep->cloth_end, v);
+    box.inflate(sweep->gap);
+    return box.overlaps(other_face);
+  };
+  auto other_point_near = [&](int v) {  // the other face's vertex v (its own numbering) against cf
+    return !boxed || point_box(*sweep->other_start, *sweep->other_end, v).overlaps(cloth_grown);
+  };
+  auto edges_near = [&](const std::array<int, 2>& e1, const std::array<int, 2>& e2) {  // e2: other numbering
+    if (!boxed) return true;
+    Aabb a = points_box(*sweep->cloth_start, *sweep->cloth_end, e1);
+    a.inflate(sweep->gap);
+    return a.overlaps(points_box(*sweep->other_start, *sweep->other_end, e2));
+  };
   if (body < 0) {
     // Cloth/cloth GIA one-way membrane (cloth_untangling.h): triangle pairs across an
     // intersection are skipped, so regions in intersection can pass back; clean cloth cannot enter.
     if (filter.skip_cloth_pair(cf, of)) return;
+    if (boxed)
+      other_face = points_box(*sweep->other_start, *sweep->other_end,
+                              std::array<int, 3>{cloth_faces_(of, 0), cloth_faces_(of, 1), cloth_faces_(of, 2)});
     for (int v : cloth_own_.face_vertices[cf])
-      if (!face_has(cloth_faces_, of, v))
+      if (!face_has(cloth_faces_, of, v) && cloth_point_near(v))
         out.push_back({{v, cloth_faces_(of, 0), cloth_faces_(of, 1), cloth_faces_(of, 2)}, -1, false});
     for (int v : cloth_own_.face_vertices[of])
-      if (!face_has(cloth_faces_, cf, v))
+      if (!face_has(cloth_faces_, cf, v) && other_point_near(v))
         out.push_back({{v, cloth_faces_(cf, 0), cloth_faces_(cf, 1), cloth_faces_(cf, 2)}, -1, false});
     for (const auto& e1 : cloth_own_.face_edges[cf])
       for (const auto& e2 : cloth_own_.face_edges[of])
-        if (e1[0] != e2[0] && e1[0] != e2[1] && e1[1] != e2[0] && e1[1] != e2[1])
+        if (e1[0] != e2[0] && e1[0] != e2[1] && e1[1] != e2[0] && e1[1] != e2[1] && edges_near(e1, e2))
           out.push_back({{e1[0], e1[1], e2[0], e2[1]}, -1, true});
     return;
   }
@@ -178,18 +225,23 @@ void ContactDetection::expand_triangle_pair(int cf, int of, int body, const Cont
   if (body_colour == 3 ||
       (body_colour >= 1 && filter.cloth_face_contour(cf, body) && (body_colour == 2 || !in_pinch)))
     return;
+  if (boxed)
+    other_face = points_box(*sweep->other_start, *sweep->other_end,
+                            std::array<int, 3>{b.faces(of, 0), b.faces(of, 1), b.faces(of, 2)});
   // GIA one-way membrane: features with a cloth vertex coloured inside this body are skipped.
   for (int v : cloth_own_.face_vertices[cf])
-    if (!filter.coloured(v, body))
+    if (!filter.coloured(v, body) && cloth_point_near(v))
       out.push_back({{v, bv(b.faces(of, 0)), bv(b.faces(of, 1)), bv(b.faces(of, 2))}, body, false});
   const bool face_coloured = filter.coloured(cloth_faces_(cf, 0), body) || filter.coloured(cloth_faces_(cf, 1), body) ||
                              filter.coloured(cloth_faces_(cf, 2), body);
   if (!face_coloured)
     for (int k : b.own.face_vertices[of])
-      out.push_back({{bv(k), cloth_faces_(cf, 0), cloth_faces_(cf, 1), cloth_faces_(cf, 2)}, body, false});
+      if (other_point_near(k))
+        out.push_back({{bv(k), cloth_faces_(cf, 0), cloth_faces_(cf, 1), cloth_faces_(cf, 2)}, body, false});
   for (const auto& e1 : cloth_own_.face_edges[cf])
     if (!filter.coloured(e1[0], body) && !filter.coloured(e1[1], body))
-      for (const auto& e2 : b.own.face_edges[of]) out.push_back({{e1[0], e1[1], bv(e2[0]), bv(e2[1])}, body, true});
+      for (const auto& e2 : b.own.face_edges[of])
+        if (edges_near(e1, e2)) out.push_back({{e1[0], e1[1], bv(e2[0]), bv(e2[1])}, body, true});
 }
 
 void ContactDetection::collect(CollisionStep& step, const ContactFilter& filter, CollisionTelemetry& frame,
@@ -218,7 +270,8 @@ void ContactDetection::collect(CollisionStep& step, const ContactFilter& filter,
                      if (triangles_apart(cloth_planes_, a, cloth_faces_, x, end, cloth_planes_, b, cloth_faces_, x, end,
                                          gap))
                        return;
-                     expand_triangle_pair(a, b, -1, filter, out);
+                     const Sweep sweep{&x, &end, &x, &end, gap};
+                     expand_triangle_pair(a, b, -1, filter, out, &sweep);
                    });
   }
   for (size_t b = 0; b < bodies_.size(); ++b) {
@@ -242,11 +295,13 @@ void ContactDetection::collect(CollisionStep& step, const ContactFilter& filter,
                    [&](std::int64_t k, std::vector<FeaturePair>& out) {
                      const auto [cf, bf] = candidates[k];
                      if (!face_collide_[cf]) return;
+                     const double gap = fraction * face_margin_[cf];
                      if (triangles_apart(cloth_planes_, cf, cloth_faces_, x, end, body_planes, bf, body_faces,
-                                         body_start, body_end, fraction * face_margin_[cf]))
+                                         body_start, body_end, gap))
                        return;
                      const size_t first = out.size();
-                     expand_triangle_pair(cf, bf, body, filter, out);
+                     const Sweep sweep{&x, &end, &body_start, &body_end, gap};
+                     expand_triangle_pair(cf, bf, body, filter, out, &sweep);
                      if (filter.pinched_face(cf, body))  // cloth in a body/body pinch: proximity only, no CCD
                        for (size_t j = first; j < out.size(); ++j) out[j].ccd = false;
                    });
@@ -290,7 +345,8 @@ void ContactDetection::collect_changed(CollisionStep& step, const ContactFilter&
         const double gap = fraction * std::max(face_margin_[lo], face_margin_[hi]);
         if (triangles_apart(cloth_planes_, lo, cloth_faces_, x, end, cloth_planes_, hi, cloth_faces_, x, end, gap))
           return;
-        expand_triangle_pair(lo, hi, -1, filter, out);
+        const Sweep sweep{&x, &end, &x, &end, gap};
+        expand_triangle_pair(lo, hi, -1, filter, out, &sweep);
       });
     });
   }
@@ -308,11 +364,13 @@ void ContactDetection::collect_changed(CollisionStep& step, const ContactFilter&
       const int cf = changed_faces_[k];
       if (!face_collide_[cf]) return;
       state.tree.query(cloth_boxes_[cf], [&](int bf) {
+        const double gap = fraction * face_margin_[cf];
         if (triangles_apart(cloth_planes_, cf, cloth_faces_, x, end, body_planes, bf, state.faces, body_start,
-                            body_end, fraction * face_margin_[cf]))
+                            body_end, gap))
           return;
         const size_t first = out.size();
-        expand_triangle_pair(cf, bf, body, filter, out);
+        const Sweep sweep{&x, &end, &body_start, &body_end, gap};
+        expand_triangle_pair(cf, bf, body, filter, out, &sweep);
         if (filter.pinched_face(cf, body))
           for (size_t j = first; j < out.size(); ++j) out[j].ccd = false;
       });

@@ -79,10 +79,24 @@ class ContactDetection {
   // with overlapping boxes (no margin), without the self-pairs of tree nodes that cannot
   // intersect themselves (self_culling.h at margin 0). Refits the trees (collect refits anew).
   const std::vector<std::pair<int, int>>& self_intersection_candidates(const Positions& x);
+  // Where a triangle pair's points are over the step (cloth start and end; the other face's:
+  // the cloth's again, or its body's) and the gap within which two features' boxes must come
+  // for their pair to be listed.
+  struct Sweep {
+    const Positions* cloth_start;
+    const Positions* cloth_end;
+    const Positions* other_start;
+    const Positions* other_end;
+    double gap;
+  };
   // Feature pairs of cloth face `cloth_face` against `other_face`, a cloth face (body < 0) or a
-  // face of body `body`, appended to out.
+  // face of body `body`, appended to out. With a sweep, pairs whose two features' boxes over
+  // the step (the first grown by sweep->gap) do not overlap are left out: collect() passes a
+  // gap no smaller than the one the proximity and CCD tests use (their first test is the same
+  // box test), so what they do is unchanged; most feature pairs of a triangle pair are such.
+  // Pairs in a pinch region (no CCD) are always listed.
   void expand_triangle_pair(int cloth_face, int other_face, int body, const ContactFilter& filter,
-                            std::vector<FeaturePair>& out) const;
+                            std::vector<FeaturePair>& out, const Sweep* sweep = nullptr) const;
 
   const Faces& cloth_faces() const { return cloth_faces_; }
   const std::vector<char>& face_collide() const { return face_collide_; }
