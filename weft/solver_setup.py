@@ -16,7 +16,7 @@ import numpy as np
 
 from api_schemas import ArrayAsset, Shot
 from weft.assets import check_finite, load_array, load_mesh, load_obj_corner_uvs, shot_hash
-from weft.geometry import surface_distance
+from weft.pin_room import PinGroup, check_pin_room
 from weft.shot import ShotError
 
 
@@ -25,21 +25,6 @@ class BodyArrays:
     name: str
     faces: np.ndarray  # (F, 3) int32
     frames: np.ndarray  # (frame_count, V, 3) float64
-
-
-@dataclass
-class PinGroup:
-    """One pins[] entry as check_pin_room sees it: its field path, its vertices (global and in
-    its piece), its piece, how it holds them (attached to a body, a path of positions per
-    keyframe) and its release time."""
-
-    field: str
-    vertices: np.ndarray
-    piece: int
-    local: np.ndarray
-    attached: bool = False
-    release: float | None = None
-    path: np.ndarray | None = None
 
 
 @dataclass
@@ -294,7 +279,7 @@ def resolve_scene(shot: Shot, base_dir: str | Path) -> Scene:
         raise ShotError("cloth.pins", "a vertex is pinned more than once")
 
     bodies = [_load_body(base_dir, shot, i) for i in range(len(shot.bodies))]
-    check_pin_room(shot, np.concatenate(positions), pin_groups, bodies)
+    check_pin_room(shot, np.concatenate(positions), pin_groups, bodies, piece_body_collide(shot))
     all_flat = all(p.rest.kind == "uv" for p in shot.cloth)
     # Pieces with a flat (uv) rest shape have no 3D rest positions: NaN rows tell the solver
     # that their rest bending angles are zero.
@@ -316,59 +301,6 @@ def resolve_scene(shot: Shot, base_dir: str | Path) -> Scene:
         pin_paths=pin_paths,
         bodies=bodies,
     )
-
-
-def check_pin_room(shot: Shot, positions: np.ndarray, pin_groups: list[PinGroup], bodies: list[BodyArrays]) -> None:
-    """Offsets that leave no room: a pin that holds cloth closer to a colliding body, at any frame
-    while it holds, than the cloth must keep from it (its thickness plus the body's
-    collision_offset). The pin holds its vertices there, collisions push the cloth out, and
-    neither can give: a ShotError naming the pin, the body, the frame and both distances.
-
-    Checked at every keyframe the pin holds (until its release) where the pin's targets or the
-    body moved; a pin attached to a body moves with it, so it is checked at the first frame
-    only. Keyframes where no pinned vertex is within reach of the body's box are skipped before
-    any exact distance is computed."""
-    if not pin_groups or not bodies:
-        return
-    collides = piece_body_collide(shot)
-    dt = 1.0 / shot.fps
-    for group in pin_groups:
-        if not collides[group.piece]:
-            continue
-        # Keyframe f is held when the frame that ends there starts before the release.
-        held = shot.frame_count if group.release is None else \
-            int(np.sum((np.arange(shot.frame_count) - 1) * dt < group.release - 1e-9 * dt))
-        for k, (spec, body) in enumerate(zip(shot.bodies, bodies)):
-            if not spec.collide:
-                continue
-            keep = shot.cloth[group.piece].material.thickness + spec.collision_offset
-            frames = [0]
-            if not group.attached:
-                body_moves = body.frames.strides[0] != 0 and held > 1 and bool(np.any(body.frames[1:held] != body.frames[0]))
-                if body_moves or group.path is not None:
-                    frames = range(held)
-            for f in frames:
-                points = positions[group.vertices] if group.path is None else group.path[f]
-                x = np.asarray(body.frames[f], dtype=np.float64)
-                reach = (points >= x.min(axis=0) - keep).all(axis=1) & (points <= x.max(axis=0) + keep).all(axis=1)
-                if not reach.any():
-                    continue
-                near = np.full(len(points), np.inf)
-                near[reach] = surface_distance(points[reach], x, body.faces)
-                closest = int(np.argmin(near))
-                # A pin placed exactly at the distance (to rounding) is fine.
-                if near[closest] < keep * (1.0 - 1e-6):
-                    inside = int(np.sum(near < keep * (1.0 - 1e-6)))
-                    offset = f" + bodies[{k}].collision_offset {spec.collision_offset * 1000:g} mm" \
-                        if spec.collision_offset else ""
-                    when = "at the first frame" if f == 0 else f"at frame {shot.frame_range[0] + f}"
-                    raise ShotError(
-                        group.field, f"{inside} pinned vertices are held closer to body {spec.name!r} than the cloth "
-                        f"keeps from it ({keep * 1000:.3g} mm = material.thickness "
-                        f"{shot.cloth[group.piece].material.thickness * 1000:g} mm{offset}); its vertex "
-                        f"{int(group.local[closest])} is {near[closest] * 1000:.3g} mm away {when}: the pin leaves the "
-                        "cloth no room. Move the pinned vertices (or their path) out, or lower the thickness or the "
-                        "offset")
 
 
 def _rest_array(base_dir: Path, value: Any, field_path: str) -> np.ndarray:
