@@ -148,57 +148,60 @@ const std::vector<std::pair<int, int>>& ContactDetection::self_intersection_cand
 
 namespace {
 
-// Box of the points over the step (start and end; the same object: static).
-Aabb point_box(const Positions& start, const Positions& end, int p) {
-  Aabb box;
-  box.expand(row3(start, p));
-  if (&end != &start) box.expand(row3(end, p));
-  return box;
-}
-
-template <std::size_t N>
-Aabb points_box(const Positions& start, const Positions& end, const std::array<int, N>& points) {
-  Aabb box;
-  for (int p : points) box.expand(point_box(start, end, p));
-  return box;
-}
+// Boxes over the step (start and end; the same object: static) of a face's three corners,
+// each grown by `grow`, and their union: what expand_triangle_pair's sweep test reads, computed
+// once per triangle pair. Growing each corner's box and then joining them gives the same bounds
+// as joining and then growing (subtracting one number is monotonic in floating point).
+struct CornerBoxes {
+  std::array<int, 3> vertex{};
+  std::array<Aabb, 3> box;
+  Aabb face;
+  void compute(std::array<int, 3> corners, const Positions& start, const Positions& end, double grow) {
+    vertex = corners;
+    face = Aabb();
+    for (int c = 0; c < 3; ++c) {
+      const Vec3 s = row3(start, corners[c]);
+      const Vec3 e = &end != &start ? Vec3(row3(end, corners[c])) : s;
+      box[c].lo = s.cwiseMin(e).array() - grow;
+      box[c].hi = s.cwiseMax(e).array() + grow;
+      face.expand(box[c]);
+    }
+  }
+  const Aabb& of(int v) const { return box[v == vertex[0] ? 0 : (v == vertex[1] ? 1 : 2)]; }
+  Aabb of(const std::array<int, 2>& edge) const {
+    Aabb b = of(edge[0]);
+    b.expand(of(edge[1]));
+    return b;
+  }
+};
 
 }  // namespace
 
 void ContactDetection::expand_triangle_pair(int cf, int of, int body, const ContactFilter& filter,
                                             std::vector<FeaturePair>& out, const Sweep* sweep) const {
-  // Boxes for the sweep's test: the cloth face's and its edges' grown by the gap, the other
-  // face's and its edges' as they are (a pair passes when the grown box of one feature overlaps
-  // the other's; feature boxes are within their face's).
+  // The sweep's test: a pair passes when the grown box of its cloth feature overlaps the box of
+  // the other one (a face's box is its corners' union, an edge's its two corners').
   const bool boxed = sweep != nullptr && !(body >= 0 && filter.pinched_face(cf, body));
-  Aabb cloth_grown, other_face;
+  CornerBoxes cloth, other;
   if (boxed) {
-    cloth_grown = points_box(*sweep->cloth_start, *sweep->cloth_end,
-                             std::array<int, 3>{cloth_faces_(cf, 0), cloth_faces_(cf, 1), cloth_faces_(cf, 2)});
-    cloth_grown.inflate(sweep->gap);
+    cloth.compute({cloth_faces_(cf, 0), cloth_faces_(cf, 1), cloth_faces_(cf, 2)}, *sweep->cloth_start,
+                  *sweep->cloth_end, sweep->gap);
+    if (body < 0)
+      other.compute({cloth_faces_(of, 0), cloth_faces_(of, 1), cloth_faces_(of, 2)}, *sweep->other_start,
+                    *sweep->other_end, 0.0);
+    else
+      other.compute({bodies_[body].faces(of, 0), bodies_[body].faces(of, 1), bodies_[body].faces(of, 2)},
+                    *sweep->other_start, *sweep->other_end, 0.0);
   }
-  auto cloth_point_near = [&](int v) {  // cloth vertex v against the other face
-    if (!boxed) return true;
-    Aabb box = point_box(*sweep->cloth_start, *sweep->cloth_end, v);
-    box.inflate(sweep->gap);
-    return box.overlaps(other_face);
-  };
-  auto other_point_near = [&](int v) {  // the other face's vertex v (its own numbering) against cf
-    return !boxed || point_box(*sweep->other_start, *sweep->other_end, v).overlaps(cloth_grown);
-  };
+  auto cloth_point_near = [&](int v) { return !boxed || cloth.of(v).overlaps(other.face); };
+  auto other_point_near = [&](int v) { return !boxed || other.of(v).overlaps(cloth.face); };
   auto edges_near = [&](const std::array<int, 2>& e1, const std::array<int, 2>& e2) {  // e2: other numbering
-    if (!boxed) return true;
-    Aabb a = points_box(*sweep->cloth_start, *sweep->cloth_end, e1);
-    a.inflate(sweep->gap);
-    return a.overlaps(points_box(*sweep->other_start, *sweep->other_end, e2));
+    return !boxed || cloth.of(e1).overlaps(other.of(e2));
   };
   if (body < 0) {
     // Cloth/cloth GIA one-way membrane (cloth_untangling.h): triangle pairs across an
     // intersection are skipped, so regions in intersection can pass back; clean cloth cannot enter.
     if (filter.skip_cloth_pair(cf, of)) return;
-    if (boxed)
-      other_face = points_box(*sweep->other_start, *sweep->other_end,
-                              std::array<int, 3>{cloth_faces_(of, 0), cloth_faces_(of, 1), cloth_faces_(of, 2)});
     for (int v : cloth_own_.face_vertices[cf])
       if (!face_has(cloth_faces_, of, v) && cloth_point_near(v))
         out.push_back({{v, cloth_faces_(of, 0), cloth_faces_(of, 1), cloth_faces_(of, 2)}, -1, false});
@@ -225,9 +228,6 @@ void ContactDetection::expand_triangle_pair(int cf, int of, int body, const Cont
   if (body_colour == 3 ||
       (body_colour >= 1 && filter.cloth_face_contour(cf, body) && (body_colour == 2 || !in_pinch)))
     return;
-  if (boxed)
-    other_face = points_box(*sweep->other_start, *sweep->other_end,
-                            std::array<int, 3>{b.faces(of, 0), b.faces(of, 1), b.faces(of, 2)});
   // GIA one-way membrane: features with a cloth vertex coloured inside this body are skipped.
   for (int v : cloth_own_.face_vertices[cf])
     if (!filter.coloured(v, body) && cloth_point_near(v))
