@@ -83,5 +83,49 @@ TEST(SelfCulling, TwoSeparateSheetsAreNotOnePatch) {
   EXPECT_GE(culled, 2);  // each sheet on its own is culled
 }
 
+TEST(SelfCulling, AnIncrementalUpdateCullsAsAFullOne) {
+  // A wavy sheet moving over a step; then, again and again, a few vertices get a new end
+  // position (as CCD impulses change them): update_changed must give what a full update gives.
+  const int n = 16;
+  Grid grid(n);
+  for (int v = 0; v < grid.x.rows(); ++v) grid.x(v, 1) = 0.004 * std::sin(40.0 * grid.x(v, 0)) * std::cos(30.0 * grid.x(v, 2));
+  Positions end = grid.x;
+  for (int v = 0; v < end.rows(); ++v) end(v, 1) += 0.001 * std::sin(7.0 * v);
+  std::vector<Aabb> boxes;
+  triangle_boxes(grid.faces, grid.x, end, std::vector<double>(grid.faces.rows(), 0.0005), boxes);
+  AabbTree tree;
+  tree.build(boxes);
+  const std::vector<char> all_self(grid.faces.rows(), 1);
+  SelfCollisionCulling incremental, full;
+  incremental.rebuild(tree, grid.faces, all_self);
+  full.rebuild(tree, grid.faces, all_self);
+  const double margin = 0.0005;
+  incremental.update(tree, grid.faces, grid.x, end, margin);
+  int differing_updates = 0;
+  for (int round = 0; round < 40; ++round) {
+    // Kick a few vertices: some so hard that their patches fold (cones over 60 degrees).
+    std::vector<char> changed_vertex(end.rows(), 0);
+    for (int k = 0; k < 3; ++k) {
+      const int v = (round * 37 + k * 101) % static_cast<int>(end.rows());
+      end(v, 1) += (round % 3 == 0 ? 0.02 : 0.0005) * (k % 2 ? 1.0 : -1.0);
+      changed_vertex[v] = 1;
+    }
+    std::vector<char> face_changed(grid.faces.rows(), 0);
+    for (int f = 0; f < grid.faces.rows(); ++f)
+      for (int c = 0; c < 3; ++c) face_changed[f] |= changed_vertex[grid.faces(f, c)];
+    const std::vector<char> before = incremental.culled();
+    const int culled = incremental.update_changed(tree, grid.faces, grid.x, end, margin, face_changed);
+    const int expected = full.update(tree, grid.faces, grid.x, end, margin);
+    ASSERT_EQ(incremental.culled(), full.culled()) << "round " << round;
+    EXPECT_EQ(culled, expected);
+    differing_updates += incremental.culled() != before;
+  }
+  EXPECT_GT(differing_updates, 5);  // the kicks did change what is culled
+  // A different margin is not an incremental change: a full update.
+  incremental.update_changed(tree, grid.faces, grid.x, end, 0.01, std::vector<char>(grid.faces.rows(), 0));
+  full.update(tree, grid.faces, grid.x, end, 0.01);
+  EXPECT_EQ(incremental.culled(), full.culled());
+}
+
 }  // namespace
 }  // namespace weft

@@ -58,16 +58,23 @@ void SweptPlanes::compute(const Faces& faces, const Positions& start, const Posi
   origin.resize(count);
   motion.resize(count);
 #pragma omp parallel for schedule(static) num_threads(threads) if (threads > 1 && count > 4096)
-  for (int f = 0; f < count; ++f) {
-    const Triangle s = corners(faces, f, start), e = corners(faces, f, end);
-    Vec3 n = (s[1] - s[0]).cross(s[2] - s[0]);
-    const double norm = n.norm();
-    normal[f] = norm > 0.0 ? Vec3(n / norm) : Vec3::Zero();
-    origin[f] = s[0];
-    double m = 0.0;
-    for (int k = 0; k < 3; ++k) m = std::max(m, (e[k] - s[k]).norm());
-    motion[f] = m;
-  }
+  for (int f = 0; f < count; ++f) compute_face(faces, start, end, f);
+}
+
+void SweptPlanes::compute_faces(const Faces& faces, const Positions& start, const Positions& end,
+                                const std::vector<int>& list) {
+  for (int f : list) compute_face(faces, start, end, f);
+}
+
+void SweptPlanes::compute_face(const Faces& faces, const Positions& start, const Positions& end, int f) {
+  const Triangle s = corners(faces, f, start), e = corners(faces, f, end);
+  Vec3 n = (s[1] - s[0]).cross(s[2] - s[0]);
+  const double norm = n.norm();
+  normal[f] = norm > 0.0 ? Vec3(n / norm) : Vec3::Zero();
+  origin[f] = s[0];
+  double m = 0.0;
+  for (int k = 0; k < 3; ++k) m = std::max(m, (e[k] - s[k]).norm());
+  motion[f] = m;
 }
 
 ContactDetection::ContactDetection(const Faces& cloth_faces, const Positions& x, std::vector<char> face_collide,
@@ -97,6 +104,7 @@ ContactDetection::ContactDetection(const Faces& cloth_faces, const Positions& x,
 }
 
 void ContactDetection::refit_cloth(const Positions& start, const Positions& end, double fraction) {
+  swept_cloth_current_ = false;
   if (fraction == 1.0) {
     triangle_boxes(cloth_faces_, start, end, face_margin_, cloth_boxes_);
   } else {
@@ -110,6 +118,7 @@ void ContactDetection::refit_cloth(const Positions& start, const Positions& end,
 const std::vector<std::pair<int, int>>& ContactDetection::body_pairs(int body, const Positions& start,
                                                                     const Positions& end) {
   Body& state = bodies_[body];
+  if (body < static_cast<int>(swept_body_current_.size())) swept_body_current_[body] = 0;
   triangle_boxes(state.faces, start, end, {}, state.boxes);
   state.tree.refit(state.boxes);
   scratch_pairs_.clear();
@@ -252,6 +261,7 @@ void ContactDetection::collect(CollisionStep& step, const ContactFilter& filter,
   const double fraction = swept ? kCcdSeparationFraction : 1.0;
   refit_cloth(x, end, fraction);
   cloth_planes_.compute(cloth_faces_, x, end, threads_);
+  swept_body_current_.assign(bodies_.size(), 0);
   std::vector<FeaturePair>& pairs = swept ? step.pairs : step.proximity_pairs;
   pairs.clear();
   if (any_self_) {
@@ -291,6 +301,7 @@ void ContactDetection::collect(CollisionStep& step, const ContactFilter& filter,
         from_kept ? scratch_pairs_ : body_pairs(body, body_start, body_end);
     SweptPlanes& body_planes = bodies_[b].planes;
     body_planes.compute(body_faces, body_start, body_end, threads_);
+    swept_body_current_[b] = swept && !from_kept;
     ordered_append(static_cast<std::int64_t>(candidates.size()), kExpandChunk, threads_, pairs, chunk_pairs_,
                    [&](std::int64_t k, std::vector<FeaturePair>& out) {
                      const auto [cf, bf] = candidates[k];
@@ -306,6 +317,7 @@ void ContactDetection::collect(CollisionStep& step, const ContactFilter& filter,
                        for (size_t j = first; j < out.size(); ++j) out[j].ccd = false;
                    });
   }
+  swept_cloth_current_ = swept;
   frame.broad_phase_pairs += static_cast<int>(pairs.size());
   frame.broad_phase_seconds += timer.seconds();
 }
@@ -315,8 +327,6 @@ void ContactDetection::collect_changed(CollisionStep& step, const ContactFilter&
   const Positions& x = *step.x;
   const Positions& end = step.x_end;
   const double fraction = kCcdSeparationFraction;
-  refit_cloth(x, end, fraction);
-  cloth_planes_.compute(cloth_faces_, x, end, threads_);
   std::vector<FeaturePair>& pairs = step.pairs;
   pairs.clear();
   const int face_count = static_cast<int>(cloth_faces_.rows());
@@ -327,11 +337,30 @@ void ContactDetection::collect_changed(CollisionStep& step, const ContactFilter&
       face_changed_[f] = 1;
       changed_faces_.push_back(f);
     }
+  // Since the last swept collect (or collect_changed) of this step only the changed vertices'
+  // end positions moved: only their faces' boxes, planes and culling cones are redone.
+  const bool incremental = swept_cloth_current_;
+  if (incremental) {
+    if (scaled_margin_.size() != face_margin_.size()) scaled_margin_.resize(face_margin_.size());
+    for (int f : changed_faces_) {
+      scaled_margin_[f] = fraction * face_margin_[f];
+      cloth_boxes_[f] = triangle_box(cloth_faces_, x, end, scaled_margin_, f);
+    }
+    cloth_tree_.refit(cloth_boxes_);
+    cloth_planes_.compute_faces(cloth_faces_, x, end, changed_faces_);
+  } else {
+    refit_cloth(x, end, fraction);
+    cloth_planes_.compute(cloth_faces_, x, end, threads_);
+  }
   const auto changed_count = static_cast<std::int64_t>(changed_faces_.size());
   if (any_self_ && changed_count > 0) {
     leaf_culled_top_.clear();
     if (self_culling_) {
-      culling_.update(cloth_tree_, cloth_faces_, x, end, fraction * largest_margin_, threads_);
+      if (incremental)
+        culling_.update_changed(cloth_tree_, cloth_faces_, x, end, fraction * largest_margin_, face_changed_,
+                                threads_);
+      else
+        culling_.update(cloth_tree_, cloth_faces_, x, end, fraction * largest_margin_, threads_);
       cloth_tree_.topmost_marked(culling_.culled(), leaf_culled_top_);
     }
     ordered_append(changed_count, 16, threads_, pairs, chunk_pairs_, [&](std::int64_t k, std::vector<FeaturePair>& out) {
@@ -356,10 +385,13 @@ void ContactDetection::collect_changed(CollisionStep& step, const ContactFilter&
     const int body = static_cast<int>(b);
     const Positions& body_start = step.body_start[b];
     const Positions& body_end = step.body_end[b];
-    triangle_boxes(state.faces, body_start, body_end, {}, state.boxes);
-    state.tree.refit(state.boxes);
     SweptPlanes& body_planes = state.planes;
-    body_planes.compute(state.faces, body_start, body_end, threads_);
+    if (b >= swept_body_current_.size() || !swept_body_current_[b]) {  // the body does not move within a step
+      triangle_boxes(state.faces, body_start, body_end, {}, state.boxes);
+      state.tree.refit(state.boxes);
+      body_planes.compute(state.faces, body_start, body_end, threads_);
+      if (b < swept_body_current_.size()) swept_body_current_[b] = 1;
+    }
     ordered_append(changed_count, 16, threads_, pairs, chunk_pairs_, [&](std::int64_t k, std::vector<FeaturePair>& out) {
       const int cf = changed_faces_[k];
       if (!face_collide_[cf]) return;
@@ -376,6 +408,8 @@ void ContactDetection::collect_changed(CollisionStep& step, const ContactFilter&
       });
     });
   }
+  // Boxes and planes are now those of this pass; the culling too where it was updated.
+  swept_cloth_current_ = incremental || !any_self_ || !self_culling_ || changed_count > 0;
   frame.broad_phase_pairs += static_cast<int>(pairs.size());
   frame.broad_phase_seconds += timer.seconds();
 }

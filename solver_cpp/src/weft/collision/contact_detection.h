@@ -28,6 +28,11 @@ struct SweptPlanes {
   std::vector<Vec3> normal, origin;
   std::vector<double> motion;
   void compute(const Faces& faces, const Positions& start, const Positions& end, int threads);
+  // The same for the listed faces only (the others keep theirs).
+  void compute_faces(const Faces& faces, const Positions& start, const Positions& end, const std::vector<int>& list);
+
+ private:
+  void compute_face(const Faces& faces, const Positions& start, const Positions& end, int f);
 };
 
 class ContactDetection {
@@ -129,6 +134,11 @@ class ContactDetection {
   double kept_fraction_ = 0.0;
   std::vector<int> changed_faces_, leaf_culled_top_;  // collect_changed()
   std::vector<char> face_changed_;
+  // The cloth's boxes, planes and culling are those of the last swept collect() (at the CCD
+  // fraction, over step.x .. step.x_end), updated by collect_changed() since: a later
+  // collect_changed() of the same step redoes only the changed faces'. Any other refit clears it.
+  bool swept_cloth_current_ = false;
+  std::vector<char> swept_body_current_;  // per body, the same for its boxes, tree and planes
   std::vector<std::vector<FeaturePair>> chunk_pairs_;  // collect(): per chunk of triangle pairs
   int threads_ = 1;
 };

@@ -100,6 +100,18 @@ void SelfCollisionCulling::rebuild(const AabbTree& tree, const Faces& faces, con
   }
   cone_.assign(nodes, {});
   culled_.assign(nodes, 0);
+  test_.assign(nodes, -1);
+  last_margin_ = -1.0;
+  parent_.assign(nodes, -1);
+  leaf_node_.assign(faces.rows(), -1);
+  for (int n = 0; n < nodes; ++n) {
+    if (tree.leaf(n) >= 0) {
+      leaf_node_[tree.leaf(n)] = n;
+    } else {
+      parent_[tree.left(n)] = n;
+      parent_[tree.right(n)] = n;
+    }
+  }
   // Nodes by height (leaves 0): the cones of one height depend only on the height below.
   std::vector<int> height(nodes, 0);
   by_height_.clear();
@@ -168,16 +180,27 @@ int SelfCollisionCulling::update(const AabbTree& tree, const Faces& faces, const
       cone_[n] = leaf < 0 ? merge(cone_[tree.left(n)], cone_[tree.right(n)]) : leaf_cone(faces, leaf, x, x_end);
     }
   }
+  test_.assign(nodes, -1);
+  last_margin_ = margin;
+  return cull_from_root(tree, x, x_end, margin);
+}
+
+int SelfCollisionCulling::cull_from_root(const AabbTree& tree, const Positions& x, const Positions& x_end,
+                                         double margin) {
   // Top-down: the first node on each path that passes is culled, with everything below it.
+  // Tests are run where test_ has no result (-1) and kept for update_changed().
+  std::fill(culled_.begin(), culled_.end(), 0);
   int culled = 0;
   std::vector<int> stack = {0};
   while (!stack.empty()) {
     const int n = stack.back();
     stack.pop_back();
     if (tree.leaf(n) >= 0) continue;
-    if (connected_[n] && cone_[n].half_angle < kMaxHalfAngle &&
-        static_cast<int>(boundary_[n].size()) <= kMaxBoundaryEdges &&
-        boundary_clear(n, cone_[n].axis, x, x_end, margin)) {
+    if (test_[n] < 0)
+      test_[n] = connected_[n] && cone_[n].half_angle < kMaxHalfAngle &&
+                 static_cast<int>(boundary_[n].size()) <= kMaxBoundaryEdges &&
+                 boundary_clear(n, cone_[n].axis, x, x_end, margin);
+    if (test_[n] > 0) {
       culled_[n] = 1;
       ++culled;
       continue;
@@ -186,6 +209,33 @@ int SelfCollisionCulling::update(const AabbTree& tree, const Faces& faces, const
     stack.push_back(tree.left(n));
   }
   return culled;
+}
+
+int SelfCollisionCulling::update_changed(const AabbTree& tree, const Faces& faces, const Positions& x,
+                                         const Positions& x_end, double margin,
+                                         const std::vector<char>& face_changed, int threads) {
+  if (margin != last_margin_ || tree.node_count() == 0) return update(tree, faces, x, x_end, margin, threads);
+  // A node's cone and test depend only on its own faces' motion: the nodes above a changed face
+  // get new cones and lose their test result (also those below a culled node, which the
+  // traversal does not reach now: a later call may), the others keep theirs.
+  const int nodes = tree.node_count();
+  dirty_.assign(nodes, 0);
+  for (size_t f = 0; f < face_changed.size(); ++f) {
+    if (!face_changed[f]) continue;
+    for (int n = leaf_node_[f]; n >= 0 && !dirty_[n]; n = parent_[n]) {
+      dirty_[n] = 1;
+      test_[n] = -1;
+    }
+  }
+  // Cones of the dirty nodes, bottom-up by height (serial: few nodes; the same arithmetic as
+  // update(), so the same bits).
+  for (const std::vector<int>& level : by_height_)
+    for (int n : level) {
+      if (!dirty_[n]) continue;
+      const int leaf = tree.leaf(n);
+      cone_[n] = leaf < 0 ? merge(cone_[tree.left(n)], cone_[tree.right(n)]) : leaf_cone(faces, leaf, x, x_end);
+    }
+  return cull_from_root(tree, x, x_end, margin);
 }
 
 bool SelfCollisionCulling::boundary_clear(int node, const Vec3& axis, const Positions& x, const Positions& x_end,

@@ -34,6 +34,13 @@ class SelfCollisionCulling {
   // `threads` threads, with the same result for any count.
   int update(const AabbTree& tree, const Faces& faces, const Positions& x, const Positions& x_end, double margin,
              int threads = 1);
+  // update() again after only the end positions of some vertices changed: x and margin as in
+  // the last update (or update_changed), x_end differing from that update's only at vertices of
+  // the faces with face_changed[f] != 0. Recomputes the cones and tests of those faces' tree
+  // nodes and their ancestors and reuses the other nodes' results: the same culled() as a full
+  // update(). Falls back to one when the margin differs or there was no update before.
+  int update_changed(const AabbTree& tree, const Faces& faces, const Positions& x, const Positions& x_end,
+                     double margin, const std::vector<char>& face_changed, int threads = 1);
   // Per tree node: 1 when its self-pairs can be skipped (after update()).
   const std::vector<char>& culled() const { return culled_; }
   // Boundary segments above which a node is not tested (its children are): bounds the quadratic test.
@@ -50,8 +57,15 @@ class SelfCollisionCulling {
 
   std::vector<char> connected_;                         // per node
   std::vector<std::vector<std::array<int, 2>>> boundary_;  // per node: edges used by one of its faces
+  // The top-down pass from cone_ and test_: the first passing node on each path is culled.
+  int cull_from_root(const AabbTree& tree, const Positions& x, const Positions& x_end, double margin);
+
   std::vector<Cone> cone_;                              // per node, per update
   std::vector<char> culled_;                            // per node, per update
+  std::vector<signed char> test_;                       // per node: last test's result, -1 not run
+  std::vector<int> parent_, leaf_node_;                 // per node its parent (-1: root); per face its leaf
+  std::vector<char> dirty_;                             // update_changed(): nodes above a changed face
+  double last_margin_ = -1.0;                           // margin of the last update (-1: none yet)
   std::vector<std::vector<int>> by_height_;             // nodes by height above the leaves (leaves: 0)
 };
 

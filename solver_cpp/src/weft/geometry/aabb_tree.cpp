@@ -11,15 +11,18 @@ void triangle_boxes(const Faces& faces, const Positions& start, const Positions&
                     const std::vector<double>& margin, std::vector<Aabb>& boxes) {
   const int count = static_cast<int>(faces.rows());
   boxes.resize(count);
-  for (int f = 0; f < count; ++f) {
-    Aabb box;
-    for (int c = 0; c < 3; ++c) {
-      box.expand(row3(start, faces(f, c)));
-      if (&end != &start) box.expand(row3(end, faces(f, c)));
-    }
-    box.inflate(margin.empty() ? 0.0 : margin[f]);
-    boxes[f] = box;
+  for (int f = 0; f < count; ++f) boxes[f] = triangle_box(faces, start, end, margin, f);
+}
+
+Aabb triangle_box(const Faces& faces, const Positions& start, const Positions& end, const std::vector<double>& margin,
+                  int f) {
+  Aabb box;
+  for (int c = 0; c < 3; ++c) {
+    box.expand(row3(start, faces(f, c)));
+    if (&end != &start) box.expand(row3(end, faces(f, c)));
   }
+  box.inflate(margin.empty() ? 0.0 : margin[f]);
+  return box;
 }
 
 void AabbTree::build(const std::vector<Aabb>& leaves) {

@@ -36,6 +36,9 @@ struct Aabb {
 // per-triangle margin. end may be the same object as start (static boxes).
 void triangle_boxes(const Faces& faces, const Positions& start, const Positions& end,
                     const std::vector<double>& margin, std::vector<Aabb>& boxes);
+// The box of triangle f alone, as triangle_boxes computes it (margin[f], or none when empty).
+Aabb triangle_box(const Faces& faces, const Positions& start, const Positions& end, const std::vector<double>& margin,
+                  int f);
 
 class AabbTree {
  public:
