@@ -157,22 +157,21 @@ const std::vector<std::pair<int, int>>& ContactDetection::self_intersection_cand
 
 namespace {
 
-// Boxes over the step (start and end; the same object: static) of a face's three corners,
-// each grown by `grow`, and their union: what expand_triangle_pair's sweep test reads, computed
-// once per triangle pair. Growing each corner's box and then joining them gives the same bounds
-// as joining and then growing (subtracting one number is monotonic in floating point).
+// Boxes over the step (start and end; the same object: static) of a face's three corners and
+// their union: what expand_triangle_pair's sweep test reads, computed once per triangle pair.
+// The bounds are those boxes_within (contact_impulse.h) forms from the same points.
 struct CornerBoxes {
   std::array<int, 3> vertex{};
   std::array<Aabb, 3> box;
   Aabb face;
-  void compute(std::array<int, 3> corners, const Positions& start, const Positions& end, double grow) {
+  void compute(std::array<int, 3> corners, const Positions& start, const Positions& end) {
     vertex = corners;
     face = Aabb();
     for (int c = 0; c < 3; ++c) {
       const Vec3 s = row3(start, corners[c]);
       const Vec3 e = &end != &start ? Vec3(row3(end, corners[c])) : s;
-      box[c].lo = s.cwiseMin(e).array() - grow;
-      box[c].hi = s.cwiseMax(e).array() + grow;
+      box[c].lo = s.cwiseMin(e);
+      box[c].hi = s.cwiseMax(e);
       face.expand(box[c]);
     }
   }
@@ -188,24 +187,29 @@ struct CornerBoxes {
 
 void ContactDetection::expand_triangle_pair(int cf, int of, int body, const ContactFilter& filter,
                                             std::vector<FeaturePair>& out, const Sweep* sweep) const {
-  // The sweep's test: a pair passes when the grown box of its cloth feature overlaps the box of
-  // the other one (a face's box is its corners' union, an edge's its two corners').
+  // The sweep's test is boxes_within's, side for side: the box of the pair's first feature (the
+  // vertex of a vertex-face pair, the first edge) grown by the gap must overlap the other's (a
+  // face's box is its corners' union, an edge's its two corners').
   const bool boxed = sweep != nullptr && !(body >= 0 && filter.pinched_face(cf, body));
   CornerBoxes cloth, other;
   if (boxed) {
     cloth.compute({cloth_faces_(cf, 0), cloth_faces_(cf, 1), cloth_faces_(cf, 2)}, *sweep->cloth_start,
-                  *sweep->cloth_end, sweep->gap);
+                  *sweep->cloth_end);
     if (body < 0)
       other.compute({cloth_faces_(of, 0), cloth_faces_(of, 1), cloth_faces_(of, 2)}, *sweep->other_start,
-                    *sweep->other_end, 0.0);
+                    *sweep->other_end);
     else
       other.compute({bodies_[body].faces(of, 0), bodies_[body].faces(of, 1), bodies_[body].faces(of, 2)},
-                    *sweep->other_start, *sweep->other_end, 0.0);
+                    *sweep->other_start, *sweep->other_end);
   }
-  auto cloth_point_near = [&](int v) { return !boxed || cloth.of(v).overlaps(other.face); };
-  auto other_point_near = [&](int v) { return !boxed || other.of(v).overlaps(cloth.face); };
+  auto first_near = [&](Aabb first, const Aabb& second) {
+    first.inflate(sweep->gap);
+    return first.overlaps(second);
+  };
+  auto cloth_point_near = [&](int v) { return !boxed || first_near(cloth.of(v), other.face); };
+  auto other_point_near = [&](int v) { return !boxed || first_near(other.of(v), cloth.face); };
   auto edges_near = [&](const std::array<int, 2>& e1, const std::array<int, 2>& e2) {  // e2: other numbering
-    return !boxed || cloth.of(e1).overlaps(other.of(e2));
+    return !boxed || first_near(cloth.of(e1), other.of(e2));
   };
   if (body < 0) {
     // Cloth/cloth GIA one-way membrane (cloth_untangling.h): triangle pairs across an

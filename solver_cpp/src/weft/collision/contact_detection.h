@@ -96,10 +96,10 @@ class ContactDetection {
   };
   // Feature pairs of cloth face `cloth_face` against `other_face`, a cloth face (body < 0) or a
   // face of body `body`, appended to out. With a sweep, pairs whose two features' boxes over
-  // the step (the first grown by sweep->gap) do not overlap are left out: collect() passes a
-  // gap no smaller than the one the proximity and CCD tests use (their first test is the same
-  // box test), so what they do is unchanged; most feature pairs of a triangle pair are such.
-  // Pairs in a pinch region (no CCD) are always listed.
+  // the step (the first feature's grown by sweep->gap) do not overlap are left out: that is
+  // boxes_within, the first test of the proximity and CCD responses, computed the same way, and
+  // collect() passes a gap no smaller than theirs, so what they do is unchanged; most feature
+  // pairs of a triangle pair are such. Pairs in a pinch region (no CCD) are always listed.
   void expand_triangle_pair(int cloth_face, int other_face, int body, const ContactFilter& filter,
                             std::vector<FeaturePair>& out, const Sweep* sweep = nullptr) const;
 
