@@ -11,7 +11,7 @@ from typing import Protocol
 import numpy as np
 
 from api_schemas import Shot
-from weft.geometry import surface_distance
+from weft.geometry import point_triangle_distance
 from weft.shot import ShotError
 
 
@@ -21,6 +21,30 @@ class BodyFrames(Protocol):
 
     faces: np.ndarray
     frames: np.ndarray
+
+
+def distances_within(points: np.ndarray, x: np.ndarray, faces: np.ndarray, reach: float) -> np.ndarray:
+    """Distance from each point to the surface (x, faces) where it is below `reach`; a number of
+    at least `reach` (infinity) elsewhere. Exact distances are computed only for the point and
+    face pairs whose boxes come within `reach` of each other: a face whose box is farther from
+    a point is farther from it than `reach`."""
+    corners = x[faces]
+    lo, hi = corners.min(axis=1), corners.max(axis=1)
+    # Faces within reach of the points' box, then point and face pairs within reach.
+    candidates = np.flatnonzero(np.all(hi >= points.min(axis=0) - reach, axis=1)
+                                & np.all(lo <= points.max(axis=0) + reach, axis=1))
+    near = np.full(len(points), np.inf)
+    if len(candidates) == 0:
+        return near
+    lo, hi, corners = lo[candidates], hi[candidates], corners[candidates]
+    point, face = np.nonzero(np.all(points[:, None, :] >= lo[None] - reach, axis=-1)
+                             & np.all(points[:, None, :] <= hi[None] + reach, axis=-1))
+    if len(point) == 0:
+        return near
+    tri = corners[face]
+    d = point_triangle_distance(points[point], tri[:, None, 0], tri[:, None, 1], tri[:, None, 2])[:, 0]
+    np.minimum.at(near, point, d)
+    return near
 
 
 @dataclass
@@ -48,8 +72,9 @@ def check_pin_room(shot: Shot, positions: np.ndarray, pin_groups: list[PinGroup]
 
     Checked at every keyframe the pin holds (until its release) where the pin's targets or the
     body moved; a pin attached to a body moves with it, so it is checked at the first frame
-    only. Keyframes where no pinned vertex is within reach of the body's box are skipped before
-    any exact distance is computed. ``collides``: per cloth piece, whether it collides with
+    only. Keyframes where no pinned vertex is within reach of the body's box are skipped, and
+    exact distances are computed only for pinned vertices and body faces within reach of each
+    other (``distances_within``). ``collides``: per cloth piece, whether it collides with
     bodies at all (``solver_setup.piece_body_collide``)."""
     if not pin_groups or not bodies:
         return
@@ -76,7 +101,7 @@ def check_pin_room(shot: Shot, positions: np.ndarray, pin_groups: list[PinGroup]
                 if not reach.any():
                     continue
                 near = np.full(len(points), np.inf)
-                near[reach] = surface_distance(points[reach], x, body.faces)
+                near[reach] = distances_within(points[reach], x, body.faces, keep)
                 closest = int(np.argmin(near))
                 # A pin placed exactly at the distance (to rounding) is fine.
                 if near[closest] < keep * (1.0 - 1e-6):

@@ -147,3 +147,24 @@ def test_no_room_is_looked_for_at_every_frame_a_pin_holds(tmp_path: Path) -> Non
     rising["bodies"][0]["animation"] = {"path": "rise.npy"}
     with pytest.raises(ShotError, match="its vertex 0 is 1.69 mm away at frame 13"):
         resolve_scene(parse_shot(rising), tmp_path)
+
+
+def test_pin_room_distances_are_exact_below_the_reach_and_at_least_it_above() -> None:
+    """distances_within (the pin-room check's pruned distances) against the full point-surface
+    distance: equal where below the reach, at least the reach elsewhere."""
+    from scenes.collision import sphere_mesh
+    from weft.geometry import surface_distance
+    from weft.pin_room import distances_within
+
+    vertices, faces = sphere_mesh(0.3, subdivisions=3)
+    rng = np.random.default_rng(7)
+    directions = rng.normal(size=(400, 3))
+    points = directions / np.linalg.norm(directions, axis=1)[:, None] * rng.uniform(0.29, 0.33, size=(400, 1))
+    reach = 0.01
+    full = surface_distance(points, vertices, faces)
+    pruned = distances_within(points, vertices, faces, reach)
+    below = full < reach
+    assert 50 < below.sum() < 350  # both kinds are present
+    assert np.array_equal(pruned[below], full[below])
+    assert np.all(pruned[~below] >= reach)
+    assert np.all(np.isinf(distances_within(points + 5.0, vertices, faces, reach)))  # nothing in reach
