@@ -4,9 +4,10 @@
 // ownership, closest_points.h). Two lists, each with boxes no larger than its test needs:
 // proximity pairs at the step's start within one thickness, CCD pairs over the step (boxes
 // swept from x to x_end) within CCD's minimum separation. Tree nodes whose cloth cannot touch
-// itself are culled (self_culling.h), and triangle pairs that a triangle's plane keeps apart
-// over the step are dropped before expansion. The GIA membranes and pinch regions skip pairs
-// through a ContactFilter.
+// itself are culled (self_culling.h), triangle pairs that a triangle's plane keeps apart over
+// the step are dropped before expansion, and feature pairs whose boxes do not come within the
+// gap are not listed (the responses' own first test). The GIA membranes and pinch regions skip
+// pairs through a ContactFilter.
 #pragma once
 
 #include <utility>
@@ -78,7 +79,8 @@ class ContactDetection {
   // feature pair with a changed point comes from such a triangle pair (each feature belongs to a
   // face that holds its points), and the same culling, plane test and filter apply, so the
   // pairs an incremental CCD pass examines are those of a full collect(.., true), in another
-  // order.
+  // order. After the step's swept collect(), only the changed faces' boxes, planes and culling
+  // are redone (the rest of x_end has not moved); the body trees are not refitted again.
   void collect_changed(CollisionStep& step, const ContactFilter& filter, CollisionTelemetry& frame);
   // Candidates for the exact intersection count at the static configuration x: triangle pairs
   // with overlapping boxes (no margin), without the self-pairs of tree nodes that cannot
