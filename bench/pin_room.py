@@ -1,8 +1,9 @@
 """Cost of the pin-room check when a shot is read (docs/collisions.md, "Offsets that leave no
 room"): `python -m bench.pin_room` resolves a 240-frame shot whose 208 fixed pins ring a turning
 sphere of 5,120 faces (every pin within reach of the sphere's box at every keyframe), once with
-the check's pruned distances (`weft.pin_room.distances_within`) and once with every pin against
-every face (`weft.geometry.surface_distance`), and prints both times."""
+the check's pruned distances (`weft.geometry.distances_within`, as `weft.pin_room` calls it)
+and once with every pin against every face (`weft.geometry.surface_distance`), and prints both
+times."""
 
 from __future__ import annotations
 

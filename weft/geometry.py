@@ -1,5 +1,5 @@
-"""Point-to-surface distances in numpy, for checks on a shot (weft.solver_setup) and for the
-benchmarks' contact metrics (bench/contact_metrics.py)."""
+"""Point-to-surface distances in numpy, for checks on a shot (weft.solver_setup, weft.pin_room)
+and for the benchmarks' contact metrics (bench/contact_metrics.py)."""
 
 from __future__ import annotations
 
@@ -48,3 +48,27 @@ def surface_distance(points: np.ndarray, x: np.ndarray, faces: np.ndarray, chunk
     for start in range(0, len(points), step):
         out[start:start + step] = point_triangle_distance(points[start:start + step], a, b, c).min(axis=1)
     return out
+
+
+def distances_within(points: np.ndarray, x: np.ndarray, faces: np.ndarray, reach: float) -> np.ndarray:
+    """Distance from each point to the surface (x, faces) where it is below `reach`; a number of
+    at least `reach` (infinity) elsewhere. Exact distances are computed only for the point and
+    face pairs whose boxes come within `reach` of each other: a face whose box is farther from
+    a point is farther from it than `reach`."""
+    corners = x[faces]
+    lo, hi = corners.min(axis=1), corners.max(axis=1)
+    # Faces within reach of the points' box, then point and face pairs within reach.
+    candidates = np.flatnonzero(np.all(hi >= points.min(axis=0) - reach, axis=1)
+                                & np.all(lo <= points.max(axis=0) + reach, axis=1))
+    near = np.full(len(points), np.inf)
+    if len(candidates) == 0:
+        return near
+    lo, hi, corners = lo[candidates], hi[candidates], corners[candidates]
+    point, face = np.nonzero(np.all(points[:, None, :] >= lo[None] - reach, axis=-1)
+                             & np.all(points[:, None, :] <= hi[None] + reach, axis=-1))
+    if len(point) == 0:
+        return near
+    tri = corners[face]
+    d = point_triangle_distance(points[point], tri[:, None, 0], tri[:, None, 1], tri[:, None, 2])[:, 0]
+    np.minimum.at(near, point, d)
+    return near

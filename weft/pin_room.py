@@ -11,7 +11,7 @@ from typing import Protocol
 import numpy as np
 
 from api_schemas import Shot
-from weft.geometry import point_triangle_distance
+from weft.geometry import distances_within
 from weft.shot import ShotError
 
 
@@ -21,30 +21,6 @@ class BodyFrames(Protocol):
 
     faces: np.ndarray
     frames: np.ndarray
-
-
-def distances_within(points: np.ndarray, x: np.ndarray, faces: np.ndarray, reach: float) -> np.ndarray:
-    """Distance from each point to the surface (x, faces) where it is below `reach`; a number of
-    at least `reach` (infinity) elsewhere. Exact distances are computed only for the point and
-    face pairs whose boxes come within `reach` of each other: a face whose box is farther from
-    a point is farther from it than `reach`."""
-    corners = x[faces]
-    lo, hi = corners.min(axis=1), corners.max(axis=1)
-    # Faces within reach of the points' box, then point and face pairs within reach.
-    candidates = np.flatnonzero(np.all(hi >= points.min(axis=0) - reach, axis=1)
-                                & np.all(lo <= points.max(axis=0) + reach, axis=1))
-    near = np.full(len(points), np.inf)
-    if len(candidates) == 0:
-        return near
-    lo, hi, corners = lo[candidates], hi[candidates], corners[candidates]
-    point, face = np.nonzero(np.all(points[:, None, :] >= lo[None] - reach, axis=-1)
-                             & np.all(points[:, None, :] <= hi[None] + reach, axis=-1))
-    if len(point) == 0:
-        return near
-    tri = corners[face]
-    d = point_triangle_distance(points[point], tri[:, None, 0], tri[:, None, 1], tri[:, None, 2])[:, 0]
-    np.minimum.at(near, point, d)
-    return near
 
 
 @dataclass

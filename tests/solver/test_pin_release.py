@@ -153,8 +153,7 @@ def test_pin_room_distances_are_exact_below_the_reach_and_at_least_it_above() ->
     """distances_within (the pin-room check's pruned distances) against the full point-surface
     distance: equal where below the reach, at least the reach elsewhere."""
     from scenes.collision import sphere_mesh
-    from weft.geometry import surface_distance
-    from weft.pin_room import distances_within
+    from weft.geometry import distances_within, surface_distance
 
     vertices, faces = sphere_mesh(0.3, subdivisions=3)
     rng = np.random.default_rng(7)

@@ -90,6 +90,7 @@ ContactDetection::ContactDetection(const Faces& cloth_faces, const Positions& x,
   cloth_tree_.build(cloth_boxes_);
   if (any_self_ && self_culling_) culling_.rebuild(cloth_tree_, cloth_faces_, face_self_);
   bodies_.resize(bodies.size());
+  swept_body_current_.assign(bodies.size(), 0);
   for (size_t b = 0; b < bodies.size(); ++b) {
     Body& state = bodies_[b];
     state.collide = body_collide[b] != 0;
@@ -118,7 +119,7 @@ void ContactDetection::refit_cloth(const Positions& start, const Positions& end,
 const std::vector<std::pair<int, int>>& ContactDetection::body_pairs(int body, const Positions& start,
                                                                     const Positions& end) {
   Body& state = bodies_[body];
-  if (body < static_cast<int>(swept_body_current_.size())) swept_body_current_[body] = 0;
+  swept_body_current_[body] = 0;
   triangle_boxes(state.faces, start, end, {}, state.boxes);
   state.tree.refit(state.boxes);
   scratch_pairs_.clear();
@@ -190,18 +191,16 @@ void ContactDetection::expand_triangle_pair(int cf, int of, int body, const Cont
   // The sweep's test is boxes_within's, side for side: the box of the pair's first feature (the
   // vertex of a vertex-face pair, the first edge) grown by the gap must overlap the other's (a
   // face's box is its corners' union, an edge's its two corners').
+  // Computed after the filters' early returns (compute_boxes).
   const bool boxed = sweep != nullptr && !(body >= 0 && filter.pinched_face(cf, body));
   CornerBoxes cloth, other;
-  if (boxed) {
+  auto compute_boxes = [&](const Faces& other_faces) {
+    if (!boxed) return;
     cloth.compute({cloth_faces_(cf, 0), cloth_faces_(cf, 1), cloth_faces_(cf, 2)}, *sweep->cloth_start,
                   *sweep->cloth_end);
-    if (body < 0)
-      other.compute({cloth_faces_(of, 0), cloth_faces_(of, 1), cloth_faces_(of, 2)}, *sweep->other_start,
-                    *sweep->other_end);
-    else
-      other.compute({bodies_[body].faces(of, 0), bodies_[body].faces(of, 1), bodies_[body].faces(of, 2)},
-                    *sweep->other_start, *sweep->other_end);
-  }
+    other.compute({other_faces(of, 0), other_faces(of, 1), other_faces(of, 2)}, *sweep->other_start,
+                  *sweep->other_end);
+  };
   auto first_near = [&](Aabb first, const Aabb& second) {
     first.inflate(sweep->gap);
     return first.overlaps(second);
@@ -215,6 +214,7 @@ void ContactDetection::expand_triangle_pair(int cf, int of, int body, const Cont
     // Cloth/cloth GIA one-way membrane (cloth_untangling.h): triangle pairs across an
     // intersection are skipped, so regions in intersection can pass back; clean cloth cannot enter.
     if (filter.skip_cloth_pair(cf, of)) return;
+    compute_boxes(cloth_faces_);
     for (int v : cloth_own_.face_vertices[cf])
       if (!face_has(cloth_faces_, of, v) && cloth_point_near(v))
         out.push_back({{v, cloth_faces_(of, 0), cloth_faces_(of, 1), cloth_faces_(of, 2)}, -1, false});
@@ -241,6 +241,7 @@ void ContactDetection::expand_triangle_pair(int cf, int of, int body, const Cont
   if (body_colour == 3 ||
       (body_colour >= 1 && filter.cloth_face_contour(cf, body) && (body_colour == 2 || !in_pinch)))
     return;
+  compute_boxes(b.faces);
   // GIA one-way membrane: features with a cloth vertex coloured inside this body are skipped.
   for (int v : cloth_own_.face_vertices[cf])
     if (!filter.coloured(v, body) && cloth_point_near(v))
@@ -265,7 +266,7 @@ void ContactDetection::collect(CollisionStep& step, const ContactFilter& filter,
   const double fraction = swept ? kCcdSeparationFraction : 1.0;
   refit_cloth(x, end, fraction);
   cloth_planes_.compute(cloth_faces_, x, end, threads_);
-  swept_body_current_.assign(bodies_.size(), 0);
+  std::fill(swept_body_current_.begin(), swept_body_current_.end(), 0);
   std::vector<FeaturePair>& pairs = swept ? step.pairs : step.proximity_pairs;
   pairs.clear();
   if (any_self_) {
@@ -390,11 +391,11 @@ void ContactDetection::collect_changed(CollisionStep& step, const ContactFilter&
     const Positions& body_start = step.body_start[b];
     const Positions& body_end = step.body_end[b];
     SweptPlanes& body_planes = state.planes;
-    if (b >= swept_body_current_.size() || !swept_body_current_[b]) {  // the body does not move within a step
+    if (!swept_body_current_[b]) {  // current: the body does not move within a step
       triangle_boxes(state.faces, body_start, body_end, {}, state.boxes);
       state.tree.refit(state.boxes);
       body_planes.compute(state.faces, body_start, body_end, threads_);
-      if (b < swept_body_current_.size()) swept_body_current_[b] = 1;
+      swept_body_current_[b] = 1;
     }
     ordered_append(changed_count, 16, threads_, pairs, chunk_pairs_, [&](std::int64_t k, std::vector<FeaturePair>& out) {
       const int cf = changed_faces_[k];
