@@ -38,7 +38,8 @@ int StrainLimit::apply(CollisionStep& step, const ContactProperties& props) cons
       if (wi + wj == 0.0) continue;
       const Vec3 d = row3(step.x_end, j) - row3(step.x_end, i);
       const double length = d.norm();
-      const double allowed = std::max(limit_[k], (row3(x, j) - row3(x, i)).norm());
+      const double start_length = (row3(x, j) - row3(x, i)).norm();
+      const double allowed = limit_[k] + kKeptExcess * std::max(start_length - limit_[k], 0.0);
       if (!(length > allowed)) continue;
       const Vec3 shift = (length - allowed) / length * d;
       step.x_end.row(i) += (wi / (wi + wj)) * shift.transpose();

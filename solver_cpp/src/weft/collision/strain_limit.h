@@ -2,11 +2,14 @@
 // Fedkiw & Anderson 2002): the velocity changes of the collision stage act per vertex (friction
 // holding a vertex on a limb that swings at metres per second, repulsion, impulses), so the
 // implicit solve's elasticity only sees them a step later. Before CCD, every cloth edge that the
-// step would stretch beyond `max_strain` times its rest length (and beyond its length at the
-// step's start, so a strain a pin or body already forces is kept, not yanked back) is
-// shortened by moving its ends' end-of-step positions towards each other, weighted by inverse
-// mass; Gauss-Seidel over the edges in a fixed order, a few passes. CCD runs after it, so the
-// step stays collision-free.
+// step would stretch beyond its allowed length is shortened by moving its ends' end-of-step
+// positions towards each other, weighted by inverse mass; Gauss-Seidel over the edges in a
+// fixed order, a few passes. CCD runs after it, so the step stays collision-free, and its
+// impulses can stretch an edge past the limit again. The allowed length is `max_strain` times
+// the rest length, or, for an edge that starts the step longer than that, the limit plus half
+// of its excess: a stretch that a pin or a body forces is given back gradually instead of being
+// yanked back in one step (it is forced again where the cause persists), and a stretch the CCD
+// impulses left relaxes towards the limit instead of ratcheting up from step to step.
 #pragma once
 
 #include <array>
@@ -32,5 +35,8 @@ class StrainLimit {
   std::vector<double> limit_;  // max_strain x rest length, per edge
   int passes_ = 4;
 };
+
+// Of an edge's length beyond the limit at the step's start, the fraction the step may keep.
+constexpr double kKeptExcess = 0.5;
 
 }  // namespace weft
