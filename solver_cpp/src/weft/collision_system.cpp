@@ -139,7 +139,6 @@ void CollisionSystem::constrain_contacts(const Positions& x, const Positions& v,
                                          const std::vector<KinematicBody>& bodies, double alpha0, double alpha1,
                                          ConstraintFilter& filter) {
   constraints_.clear();
-  detection_.forget_static_body_pairs();
   if (!settings_.contact_constraints || !detection_.any_body()) return;
   // While the cloth is in intersection (the last analysis or frame-end count found some, a step
   // left pairs unresolved or ran pairs without CCD) or two bodies pinch it, GIA's membranes,
@@ -185,7 +184,6 @@ void CollisionSystem::respond(const Positions& x, Positions& v, double h, const 
     untangle_.clear();
   }
   detection_.collect(step_, *filter_, frame_, false);
-  detection_.forget_static_body_pairs();  // x moves on: the kept pairs were for this step's start
   ProximityResponse().apply(step_, props_, frame_, threads_);
   if (strain_limit_.enabled()) {
     const Timer timer;

@@ -25,56 +25,67 @@ void ContactConstraints::constrain(const Positions& x, const Positions& v, doubl
   const int vertex_count = static_cast<int>(x.rows());
   if (released_.size() != static_cast<size_t>(vertex_count)) released_.assign(vertex_count, 0);
   if (held_.size() != static_cast<size_t>(vertex_count)) held_.assign(vertex_count, 0);
-  detection.refit_cloth(x, x, kContactBand);
-  // Closest collidable body face within the band, per cloth vertex.
+  // Closest collidable body face within the band, per cloth vertex: each free vertex's box (the
+  // band around it) queried against the body's tree at the step's start. A vertex within the
+  // band of a face is within it of the face's box along every axis, so no contact is missed; a
+  // vertex is looked at once, where a pair of triangles' boxes would list it against every body
+  // face near its triangle (four times as many on a draped sheet).
   std::vector<double> best(vertex_count, std::numeric_limits<double>::infinity());
   std::vector<Contact> contact(vertex_count);
-  // Distances of the candidates' cloth vertices, computed in parallel over fixed chunks of
-  // candidates, then reduced in candidate order: the same contacts as one serial pass.
+  std::vector<int> best_face(vertex_count, -1);
+  // Distances computed in parallel over fixed chunks of cloth faces (each vertex with the face
+  // that owns it), then reduced in that order: the same contacts as one serial pass.
   struct Near {
     int vertex;
+    int face;  // of the body
     double distance;
     Contact contact;
   };
   constexpr std::int64_t kChunk = 256;
+  const Faces& cloth_faces = detection.cloth_faces();
+  const auto face_count = static_cast<std::int64_t>(cloth_faces.rows());
   std::vector<Near> nearby;
   for (size_t b = 0; b < detection.bodies().size(); ++b) {
-    const ContactDetection::Body& state = detection.bodies()[b];
-    if (!state.collide) continue;
+    if (!detection.bodies()[b].collide) continue;
+    const int body = static_cast<int>(b);
     const Positions& start = step.body_start[b];
     const Positions& end = step.body_end[b];
-    // Kept for the proximity list after the solve (same x, same body positions): one traversal.
-    const std::vector<std::pair<int, int>>& candidates =
-        detection.keep_static_body_pairs(static_cast<int>(b), start, kContactBand);
+    const ContactDetection::Body& state = detection.refit_body(body, start, start);
     nearby.clear();
-    ordered_append(static_cast<std::int64_t>(candidates.size()), kChunk, detection.threads(), nearby,
-                   [&](std::int64_t k, std::vector<Near>& out) {
-                     const auto [cf, bf] = candidates[k];
-                     if (!detection.face_collide()[cf]) return;
-                     const Vec3 a = row3(start, state.faces(bf, 0)), bb = row3(start, state.faces(bf, 1)),
-                                cc = row3(start, state.faces(bf, 2));
-                     for (int vtx : detection.cloth_ownership().face_vertices[cf]) {
-                       if (props.inverse_mass[vtx] == 0.0) continue;
-                       Vec3 bary;
-                       const Vec3 p = row3(x, vtx);
-                       const double d = point_triangle_distance(p, a, bb, cc, bary);
-                       const double th = props.body_separation(vtx, static_cast<int>(b));
-                       if (d >= kContactBand * th || d <= 1e-12 * th) continue;
-                       Vec3 vb = Vec3::Zero();
-                       for (int q = 0; q < 3; ++q) {
-                         const int bv = state.faces(bf, q);
-                         vb += bary[q] * (row3(end, bv) - row3(start, bv)) / h;
-                       }
-                       out.push_back({vtx, d,
-                                      {vtx, static_cast<int>(b), (p - (bary[0] * a + bary[1] * bb + bary[2] * cc)) / d,
-                                       vb, 0.0}});
-                     }
-                   });
-    for (const Near& near : nearby)
-      if (near.distance < best[near.vertex]) {
-        best[near.vertex] = near.distance;
-        contact[near.vertex] = near.contact;
+    ordered_append(face_count, kChunk, detection.threads(), nearby, [&](std::int64_t cf, std::vector<Near>& out) {
+      if (!detection.face_collide()[cf]) return;
+      for (int vtx : detection.cloth_ownership().face_vertices[cf]) {
+        if (props.inverse_mass[vtx] == 0.0) continue;
+        const Vec3 p = row3(x, vtx);
+        const double th = props.body_separation(vtx, body);
+        Aabb band;
+        band.expand(p);
+        band.inflate(kContactBand * th);
+        state.tree.query(band, [&](int bf) {
+          const Vec3 a = row3(start, state.faces(bf, 0)), bb = row3(start, state.faces(bf, 1)),
+                     cc = row3(start, state.faces(bf, 2));
+          Vec3 bary;
+          const double d = point_triangle_distance(p, a, bb, cc, bary);
+          if (d >= kContactBand * th || d <= 1e-12 * th) return;
+          Vec3 vb = Vec3::Zero();
+          for (int q = 0; q < 3; ++q) {
+            const int bv = state.faces(bf, q);
+            vb += bary[q] * (row3(end, bv) - row3(start, bv)) / h;
+          }
+          out.push_back({vtx, bf, d, {vtx, body, (p - (bary[0] * a + bary[1] * bb + bary[2] * cc)) / d, vb, 0.0}});
+        });
       }
+    });
+    // Ties (a vertex closest to an edge or corner that faces share): the lowest body, then face.
+    for (const Near& near : nearby) {
+      const int i = near.vertex;
+      if (near.distance < best[i] ||
+          (near.distance == best[i] && contact[i].body == body && near.face < best_face[i])) {
+        best[i] = near.distance;
+        best_face[i] = near.face;
+        contact[i] = near.contact;
+      }
+    }
   }
   for (int i = 0; i < vertex_count; ++i) {
     const bool released = released_[i] != 0, held = held_[i] != 0;

@@ -116,33 +116,21 @@ void ContactDetection::refit_cloth(const Positions& start, const Positions& end,
   cloth_tree_.refit(cloth_boxes_);
 }
 
-const std::vector<std::pair<int, int>>& ContactDetection::body_pairs(int body, const Positions& start,
-                                                                    const Positions& end) {
+const ContactDetection::Body& ContactDetection::refit_body(int body, const Positions& start, const Positions& end) {
   Body& state = bodies_[body];
   swept_body_current_[body] = 0;
   triangle_boxes(state.faces, start, end, {}, state.boxes);
   state.tree.refit(state.boxes);
+  return state;
+}
+
+const std::vector<std::pair<int, int>>& ContactDetection::body_pairs(int body, const Positions& start,
+                                                                    const Positions& end) {
+  const Body& state = refit_body(body, start, end);
   scratch_pairs_.clear();
   cloth_tree_.pairs(state.tree, scratch_pairs_, threads_);
   return scratch_pairs_;
 }
-
-const std::vector<std::pair<int, int>>& ContactDetection::keep_static_body_pairs(int body, const Positions& start,
-                                                                                double fraction) {
-  if (kept_pairs_.size() != bodies_.size()) {
-    kept_pairs_.resize(bodies_.size());
-    kept_.assign(bodies_.size(), 0);
-  }
-  if (std::any_of(kept_.begin(), kept_.end(), [](char k) { return k != 0; }) && fraction != kept_fraction_)
-    forget_static_body_pairs();  // one fraction for all kept lists
-  body_pairs(body, start, start);
-  kept_pairs_[body].swap(scratch_pairs_);
-  kept_[body] = 1;
-  kept_fraction_ = fraction;
-  return kept_pairs_[body];
-}
-
-void ContactDetection::forget_static_body_pairs() { std::fill(kept_.begin(), kept_.end(), 0); }
 
 const std::vector<std::pair<int, int>>& ContactDetection::self_intersection_candidates(const Positions& x) {
   refit_cloth(x, x, 0.0);
@@ -295,18 +283,10 @@ void ContactDetection::collect(CollisionStep& step, const ContactFilter& filter,
     const Positions& body_start = step.body_start[b];
     const Positions& body_end = swept ? step.body_end[b] : body_start;
     const Faces& body_faces = bodies_[b].faces;
-    const bool from_kept = !swept && b < kept_.size() && kept_[b] && kept_fraction_ >= fraction;
-    if (from_kept) {  // a subset of the kept static pairs: filter them instead of traversing
-      triangle_boxes(body_faces, body_start, body_start, {}, bodies_[b].boxes);
-      scratch_pairs_.clear();
-      for (const auto& pair : kept_pairs_[b])
-        if (cloth_boxes_[pair.first].overlaps(bodies_[b].boxes[pair.second])) scratch_pairs_.push_back(pair);
-    }
-    const std::vector<std::pair<int, int>>& candidates =
-        from_kept ? scratch_pairs_ : body_pairs(body, body_start, body_end);
+    const std::vector<std::pair<int, int>>& candidates = body_pairs(body, body_start, body_end);
     SweptPlanes& body_planes = bodies_[b].planes;
     body_planes.compute(body_faces, body_start, body_end, threads_);
-    swept_body_current_[b] = swept && !from_kept;
+    swept_body_current_[b] = swept;
     ordered_append(static_cast<std::int64_t>(candidates.size()), kExpandChunk, threads_, pairs, chunk_pairs_,
                    [&](std::int64_t k, std::vector<FeaturePair>& out) {
                      const auto [cf, bf] = candidates[k];

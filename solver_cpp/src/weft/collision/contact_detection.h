@@ -62,13 +62,9 @@ class ContactDetection {
   // Refit body `body`'s tree over start..end (the same object: static) and return its
   // overlapping (cloth face, body face) pairs against the cloth tree as last refitted.
   const std::vector<std::pair<int, int>>& body_pairs(int body, const Positions& start, const Positions& end);
-  // body_pairs(body, start, start) against the cloth tree as last refitted, static at `fraction`
-  // of the margins, and kept: until forget_static_body_pairs(), collect(.., false) at a
-  // fraction no larger takes its pairs from these (the same set: the pairs whose boxes
-  // overlap) instead of traversing the trees again. The caller keeps x and start unchanged
-  // meanwhile (the contact constraints before the solve, the proximity list after it).
-  const std::vector<std::pair<int, int>>& keep_static_body_pairs(int body, const Positions& start, double fraction);
-  void forget_static_body_pairs();
+  // Refit body `body`'s boxes and tree over start..end (the same object: static) and return it:
+  // the contact constraints query it vertex by vertex.
+  const Body& refit_body(int body, const Positions& start, const Positions& end);
   // Broad phase. swept: over the step from step.x to step.x_end within the CCD minimum
   // separation, into step.pairs; else at step.x within one thickness, into
   // step.proximity_pairs. Cloth in a pinch region gets no CCD.
@@ -131,9 +127,6 @@ class ContactDetection {
   SweptPlanes cloth_planes_;  // collect(), collect_changed()
   std::vector<Body> bodies_;
   std::vector<std::pair<int, int>> scratch_pairs_;
-  std::vector<std::vector<std::pair<int, int>>> kept_pairs_;  // keep_static_body_pairs(), per body
-  std::vector<char> kept_;                                    // per body: kept_pairs_ valid
-  double kept_fraction_ = 0.0;
   std::vector<int> changed_faces_, leaf_culled_top_;  // collect_changed()
   std::vector<char> face_changed_;
   // The cloth's boxes, planes and culling are those of the last swept collect() (at the CCD
