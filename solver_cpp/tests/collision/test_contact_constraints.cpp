@@ -1,0 +1,150 @@
+// Contact constraints (contact_constraints.h): every free cloth vertex within two thicknesses of a
+// collidable body face gets the closest one (lowest body, then face, on ties) as its contact,
+// found vertex by vertex in the body trees; checked against every vertex measured against every
+// face of every body.
+#include <gtest/gtest.h>
+
+#include <limits>
+#include <random>
+
+#include "support/grid_faces.h"
+#include "weft/collision/contact_constraints.h"
+#include "weft/geometry/closest_points.h"
+
+namespace weft {
+namespace {
+
+constexpr double kThickness = 0.002;
+constexpr double kBand = 2.0 * kThickness;  // contact_constraints.cpp's band
+
+// A bumpy floor (body 0) and a tilted plate over part of it (body 1), and a 14 x 14 cloth grid
+// whose vertices hover 0.2-7 mm over the floor, some of them near the plate too.
+struct Scene {
+  Faces cloth_faces = testing::grid_faces(14);
+  Positions x{14 * 14, 3};
+  std::vector<KinematicBody> bodies;
+  ContactProperties props;
+
+  explicit Scene(unsigned seed) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<double> unit(0.0, 1.0);
+    auto floor_height = [](double px, double py) { return 0.002 * std::sin(90.0 * px) * std::cos(70.0 * py); };
+    const int m = 12;
+    Positions floor(m * m, 3);
+    for (int i = 0; i < m; ++i)
+      for (int j = 0; j < m; ++j) {
+        const double px = -0.01 + 0.015 * j, py = -0.01 + 0.015 * i;
+        floor.row(i * m + j) << px, py, floor_height(px, py);
+      }
+    bodies.emplace_back(testing::grid_faces(m), floor);
+    const int k = 5;
+    Positions plate(k * k, 3);
+    for (int i = 0; i < k; ++i)
+      for (int j = 0; j < k; ++j) {
+        const double px = 0.04 + 0.012 * j, py = 0.04 + 0.012 * i;
+        plate.row(i * k + j) << px, py, 0.004 + 0.05 * (px - 0.04);
+      }
+    bodies.emplace_back(testing::grid_faces(k), plate);
+    for (int i = 0; i < 14; ++i)
+      for (int j = 0; j < 14; ++j) {
+        const double px = 0.01 * j + 0.002 * unit(rng), py = 0.01 * i + 0.002 * unit(rng);
+        x.row(i * 14 + j) << px, py, floor_height(px, py) + 0.0002 + 0.0068 * unit(rng);
+      }
+    const int n = static_cast<int>(x.rows());
+    props.inverse_mass.assign(n, 1.0);
+    props.inverse_mass[0] = props.inverse_mass[17] = 0.0;  // pinned: never constrained
+    props.thickness.assign(n, kThickness);
+    props.friction.assign(n, 0.3);
+  }
+};
+
+struct Closest {
+  double distance = std::numeric_limits<double>::infinity();
+  Vec3 normal = Vec3::Zero();
+};
+
+// Every free vertex against every face of every body, in order: the first of equal distances.
+std::vector<Closest> brute_force(const Scene& s) {
+  std::vector<Closest> out(s.x.rows());
+  for (Eigen::Index i = 0; i < s.x.rows(); ++i) {
+    if (s.props.inverse_mass[i] == 0.0) continue;
+    const Vec3 p = row3(s.x, static_cast<int>(i));
+    for (const KinematicBody& body : s.bodies) {
+      const Positions& y = body.frame_start();
+      for (Eigen::Index f = 0; f < body.faces().rows(); ++f) {
+        const Vec3 a = row3(y, body.faces()(f, 0)), b = row3(y, body.faces()(f, 1)), c = row3(y, body.faces()(f, 2));
+        Vec3 bary;
+        const double d = point_triangle_distance(p, a, b, c, bary);
+        if (d >= kBand || d <= 1e-12 * kThickness || d >= out[i].distance) continue;
+        out[i].distance = d;
+        out[i].normal = (p - (bary[0] * a + bary[1] * b + bary[2] * c)) / d;
+      }
+    }
+  }
+  return out;
+}
+
+// Every vertex moves at 10 m/s towards its closest face (brute force), or falls where it has
+// none: each one within the band approaches its contact faster than the target, so each gets
+// a constraint along the normal the search chose.
+ConstraintFilter constrain(const Scene& s, const std::vector<Closest>& closest, int threads,
+                           CollisionTelemetry& frame) {
+  const int faces = static_cast<int>(s.cloth_faces.rows());
+  ContactDetection detection(s.cloth_faces, s.x, std::vector<char>(faces, 1), std::vector<char>(faces, 0),
+                             std::vector<double>(faces, kThickness), s.bodies, {1, 1});
+  detection.set_threads(threads);
+  Positions v = Positions::Zero(s.x.rows(), 3);
+  for (Eigen::Index i = 0; i < v.rows(); ++i)
+    v.row(i) = std::isfinite(closest[i].distance) ? Vec3(-10.0 * closest[i].normal).transpose() : Vec3(0, 0, -10).transpose();
+  CollisionStep step;
+  step.begin(s.x, v, 0.01);
+  for (const KinematicBody& body : s.bodies) {
+    step.body_start.push_back(body.frame_start());
+    step.body_end.push_back(body.frame_start());
+  }
+  ConstraintFilter filter;
+  filter.reset(static_cast<int>(s.x.rows()));
+  ContactConstraints().constrain(s.x, v, 0.01, step, detection, s.props, filter, frame);
+  return filter;
+}
+
+TEST(ContactConstraints, EachFreeVertexGetsItsClosestBodyFaceWithinTheBand) {
+  for (unsigned seed : {1u, 2u, 3u}) {
+    const Scene s(seed);
+    const std::vector<Closest> expected = brute_force(s);
+    CollisionTelemetry frame;
+    const ConstraintFilter filter = constrain(s, expected, 2, frame);
+    int contacts = 0, near_plate = 0;
+    for (size_t i = 0; i < expected.size(); ++i) {
+      if (!std::isfinite(expected[i].distance)) {
+        EXPECT_EQ(filter.projection[i], Mat3::Identity()) << "vertex " << i << ", seed " << seed;
+        continue;
+      }
+      ++contacts;
+      const Vec3& n = expected[i].normal;
+      near_plate += n.x() < -0.01;  // the tilted plate's normals lean towards -x
+      EXPECT_LT((filter.projection[i] - (Mat3::Identity() - n * n.transpose())).cwiseAbs().maxCoeff(), 1e-12)
+          << "vertex " << i << ", seed " << seed;
+    }
+    EXPECT_EQ(frame.contact_constraints, contacts);
+    // Not vacuous: most vertices are within the band, a few beyond it, some closest to the plate.
+    EXPECT_GT(contacts, 100) << "seed " << seed;
+    EXPECT_LT(contacts, 14 * 14 - 2) << "seed " << seed;
+    EXPECT_GT(near_plate, 0) << "seed " << seed;
+  }
+}
+
+TEST(ContactConstraints, TheSameContactsOnAnyThreadCount) {
+  const Scene s(4);
+  const std::vector<Closest> closest = brute_force(s);
+  CollisionTelemetry one, two;
+  const ConstraintFilter a = constrain(s, closest, 1, one), b = constrain(s, closest, 2, two);
+  EXPECT_EQ(one.contact_constraints, two.contact_constraints);
+  for (size_t i = 0; i < a.projection.size(); ++i) {
+    EXPECT_EQ(a.projection[i], b.projection[i]) << "vertex " << i;
+    EXPECT_EQ(a.prescribed.segment<3>(3 * i), b.prescribed.segment<3>(3 * i)) << "vertex " << i;
+  }
+}
+
+}  // namespace
+}  // namespace weft
