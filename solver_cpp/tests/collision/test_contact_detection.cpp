@@ -123,6 +123,63 @@ TEST(ContactDetection, SharedVerticesAndEdgesAreNotPaired) {
   EXPECT_EQ(std::count_if(pairs.begin(), pairs.end(), [](const FeaturePair& p) { return p.edge_edge; }), 2);
 }
 
+// A cloth grid parallel to a body grid tilted 45 degrees (so that boxes are fat), 1.5 gaps
+// above it along the normal, with one corner of each cell pushed down to half a gap: the
+// proximity list holds every feature pair within the gap, and the planes keep out most of the
+// pairs whose boxes alone would be listed (features of the raised cloth). Measured: 602 listed
+// of 1,191 that pass the boxes, 380 within the gap; 853 without the per-feature plane test.
+TEST(ContactDetection, TheProximityListHoldsEveryPairWithinTheGapAndFewOthers) {
+  const double gap = 0.003;
+  const int n = 10, m = 7;
+  const Vec3 normal = Vec3(-1.0, 0.0, 1.0).normalized(), along = Vec3(1.0, 0.0, 1.0).normalized();
+  const Faces cloth_faces = testing::grid_faces(n), body_faces = testing::grid_faces(m);
+  Positions x(n * n, 3), body_x(m * m, 3);
+  for (int i = 0; i < m; ++i)
+    for (int j = 0; j < m; ++j) body_x.row(i * m + j) = (0.015 * i * along + Vec3(0.0, 0.015 * j, 0.0)).transpose();
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j) {
+      const int k = i * n + j;
+      const double height = i % 2 == 0 && j % 2 == 0 ? 0.5 * gap : 1.5 * gap;
+      x.row(k) = (0.01 * i * along + Vec3(0.0, 0.01 * j, 0.0) + height * normal).transpose();
+    }
+  const std::vector<KinematicBody> bodies = {KinematicBody(body_faces, body_x)};
+  const int face_count = static_cast<int>(cloth_faces.rows());
+  ContactDetection detection(cloth_faces, x, std::vector<char>(face_count, 1), std::vector<char>(face_count, 0),
+                             std::vector<double>(face_count, gap), bodies, {1});
+  CollisionStep step;
+  Positions v = Positions::Zero(n * n, 3);
+  step.begin(x, v, 0.01);
+  step.body_start = {body_x};
+  step.body_end = {body_x};
+  CollisionTelemetry frame;
+  detection.collect(step, ContactFilter(), frame, false);
+  auto key = [](const FeaturePair& p) {
+    return std::array<int, 5>{p.point[0], p.point[1], p.point[2], p.point[3], p.edge_edge ? 1 : 0};
+  };
+  std::set<std::array<int, 5>> listed, within, boxed;
+  for (const FeaturePair& p : step.proximity_pairs) listed.insert(key(p));
+  EXPECT_EQ(listed.size(), step.proximity_pairs.size());
+  // Every triangle pair, expanded in full (distances) and by boxes alone.
+  const ContactDetection::Sweep boxes_only{&x, &x, &body_x, &body_x, gap};
+  for (int cf = 0; cf < face_count; ++cf)
+    for (int bf = 0; bf < body_faces.rows(); ++bf) {
+      std::vector<FeaturePair> all, near;
+      detection.expand_triangle_pair(cf, bf, 0, ContactFilter(), all);
+      detection.expand_triangle_pair(cf, bf, 0, ContactFilter(), near, &boxes_only);
+      for (const FeaturePair& p : near) boxed.insert(key(p));
+      for (const FeaturePair& p : all) {
+        std::array<Vec3, 4> s;
+        for (int i = 0; i < 4; ++i) s[i] = p.point[i] >= 0 ? Vec3(row3(x, p.point[i])) : Vec3(row3(body_x, -1 - p.point[i]));
+        std::array<double, 4> w;
+        if (pair_weights(s, p.edge_edge, w) < gap) within.insert(key(p));
+      }
+    }
+  ASSERT_GT(within.size(), 100u);
+  for (const auto& p : within) EXPECT_TRUE(listed.count(p)) << p[0] << " " << p[1] << " " << p[2] << " " << p[3];
+  for (const auto& p : listed) EXPECT_TRUE(boxed.count(p));
+  EXPECT_LT(listed.size() * 5, boxed.size() * 3) << listed.size() << " of " << boxed.size();
+}
+
 // An n x n grid in the xz plane (spacing 1 cm) folded about x = 5.5 cm so that its far half
 // lies 2 mm above the near half: pairs across the fold survive self-culling, those inside
 // each flat half are culled.

@@ -14,43 +14,75 @@ bool face_has(const Faces& faces, int f, int v) { return faces(f, 0) == v || fac
 
 using Triangle = std::array<Vec3, 3>;
 
+// Relative slack of the plane test's limit. Resting contact holds cloth at exactly the
+// thickness, where a point's distance to a plane and its distance to the face (computed by
+// other arithmetic: point_triangle_distance, segment_segment_distance) can differ in the last
+// bits; a pair at the gap is listed rather than dropped on rounding.
+constexpr double kPlaneSlack = 1e-6;
+
 Triangle corners(const Faces& faces, int f, const Positions& x) {
   return {row3(x, faces(f, 0)), row3(x, faces(f, 1)), row3(x, faces(f, 2))};
 }
 
-// Whether the start plane of triangle A has every start and end corner of B strictly on one
-// side, farther than gap plus the largest corner displacement of A. Every point of a linearly
-// moving triangle stays within its largest corner displacement of its start position, and B's
-// points over the step are convex combinations of its corners, so then A and B stay more than
-// gap apart for the whole step. A's plane and motion come from SweptPlanes (once per face).
-bool plane_separates(const SweptPlanes& pa, int a, const Triangle& bs, const Triangle& be, double gap) {
+// Signed distances of B's corners (start and end) to A's start plane, lowest and highest per
+// corner, and the limit beyond which a point stays more than gap from A over the step: gap plus
+// A's largest corner displacement (every point of a linearly moving triangle stays within it of
+// its start position), widened by kPlaneSlack; infinite when A is degenerate (no plane, nothing
+// is beyond).
+void corner_sides(const SweptPlanes& pa, int a, const Triangle& bs, const Triangle& be, double gap, double slack,
+                  std::array<double, 3>& lo, std::array<double, 3>& hi, double& limit) {
   const Vec3& n = pa.normal[a];
-  if (n == Vec3::Zero()) return false;  // degenerate face: no plane
-  const double limit = gap + pa.motion[a];
+  if (n == Vec3::Zero()) {
+    limit = std::numeric_limits<double>::infinity();
+    lo.fill(0.0);
+    hi.fill(0.0);
+    return;
+  }
+  limit = (gap + pa.motion[a]) * (1.0 + slack);
   const Vec3& origin = pa.origin[a];
-  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
-  for (int k = 0; k < 3; ++k)
-    for (const Vec3* p : {&bs[k], &be[k]}) {
-      const double d = n.dot(*p - origin);
-      lo = std::min(lo, d);
-      hi = std::max(hi, d);
-    }
-  return lo > limit || hi < -limit;
+  for (int k = 0; k < 3; ++k) {
+    const double ds = n.dot(bs[k] - origin), de = n.dot(be[k] - origin);
+    lo[k] = std::min(ds, de);
+    hi[k] = std::max(ds, de);
+  }
 }
 
-// Triangle pairs that cannot come within gap of each other over the step (either plane
-// separates them): cheaper to drop than to expand into up to 15 feature pairs.
-bool triangles_apart(const SweptPlanes& pa, int a, const Faces& fa, const Positions& as, const Positions& ae,
-                     const SweptPlanes& pb, int b, const Faces& fb, const Positions& bs, const Positions& be,
-                     double gap) {
-  return plane_separates(pa, a, corners(fb, b, bs), corners(fb, b, be), gap) ||
-         plane_separates(pb, b, corners(fa, a, as), corners(fa, a, ae), gap);
+// Whether the corners in `mask` all lie beyond `limit` on one side.
+bool beyond(const std::array<double, 3>& lo, const std::array<double, 3>& hi, double limit, int mask) {
+  double low = std::numeric_limits<double>::infinity(), high = -low;
+  for (int k = 0; k < 3; ++k)
+    if (mask & (1 << k)) {
+      low = std::min(low, lo[k]);
+      high = std::max(high, hi[k]);
+    }
+  return low > limit || high < -limit;
+}
+
+// The plane test of triangle pair (a of fa, b of fb), corner by corner (ContactDetection::PlaneSides);
+// `exact`: the pair's list is the proximity list, whose response acts exactly within the gap
+// (the limit gets kPlaneSlack). CCD's lists keep the plain limit: CCD itself reports pairs
+// somewhat beyond its minimum separation (its tolerance grows with each query's extent), so
+// what they list is what they always listed.
+ContactDetection::PlaneSides plane_sides(const SweptPlanes& pa, int a, const Faces& fa, const Positions& as,
+                                         const Positions& ae, const SweptPlanes& pb, int b, const Faces& fb,
+                                         const Positions& bs, const Positions& be, double gap, bool exact) {
+  ContactDetection::PlaneSides sides;
+  const double slack = exact ? kPlaneSlack : 0.0;
+  corner_sides(pb, b, corners(fa, a, as), corners(fa, a, ae), gap, slack, sides.cloth_lo, sides.cloth_hi,
+               sides.cloth_limit);
+  corner_sides(pa, a, corners(fb, b, bs), corners(fb, b, be), gap, slack, sides.other_lo, sides.other_hi,
+               sides.other_limit);
+  return sides;
 }
 
 // Triangle pairs per parallel chunk of the plane test and expansion (collect).
 constexpr std::int64_t kExpandChunk = 512;
 
 }  // namespace
+
+bool ContactDetection::PlaneSides::apart(int cloth_mask, int other_mask) const {
+  return beyond(cloth_lo, cloth_hi, cloth_limit, cloth_mask) || beyond(other_lo, other_hi, other_limit, other_mask);
+}
 
 void SweptPlanes::compute(const Faces& faces, const Positions& start, const Positions& end, int threads) {
   const int count = static_cast<int>(faces.rows());
@@ -164,7 +196,10 @@ struct CornerBoxes {
       face.expand(box[c]);
     }
   }
-  const Aabb& of(int v) const { return box[v == vertex[0] ? 0 : (v == vertex[1] ? 1 : 2)]; }
+  int corner(int v) const { return v == vertex[0] ? 0 : (v == vertex[1] ? 1 : 2); }
+  int bits(int v) const { return 1 << corner(v); }
+  int bits(const std::array<int, 2>& edge) const { return bits(edge[0]) | bits(edge[1]); }
+  const Aabb& of(int v) const { return box[corner(v)]; }
   Aabb of(const std::array<int, 2>& edge) const {
     Aabb b = of(edge[0]);
     b.expand(of(edge[1]));
@@ -193,10 +228,16 @@ void ContactDetection::expand_triangle_pair(int cf, int of, int body, const Cont
     first.inflate(sweep->gap);
     return first.overlaps(second);
   };
-  auto cloth_point_near = [&](int v) { return !boxed || first_near(cloth.of(v), other.face); };
-  auto other_point_near = [&](int v) { return !boxed || first_near(other.of(v), cloth.face); };
+  const PlaneSides* planes = boxed ? sweep->planes : nullptr;
+  auto cloth_point_near = [&](int v) {
+    return !boxed || (first_near(cloth.of(v), other.face) && !(planes && planes->apart(cloth.bits(v), 7)));
+  };
+  auto other_point_near = [&](int v) {
+    return !boxed || (first_near(other.of(v), cloth.face) && !(planes && planes->apart(7, other.bits(v))));
+  };
   auto edges_near = [&](const std::array<int, 2>& e1, const std::array<int, 2>& e2) {  // e2: other numbering
-    return !boxed || first_near(cloth.of(e1), other.of(e2));
+    return !boxed ||
+           (first_near(cloth.of(e1), other.of(e2)) && !(planes && planes->apart(cloth.bits(e1), other.bits(e2))));
   };
   if (body < 0) {
     // Cloth/cloth GIA one-way membrane (cloth_untangling.h): triangle pairs across an
@@ -270,10 +311,10 @@ void ContactDetection::collect(CollisionStep& step, const ContactFilter& filter,
                      const auto [a, b] = scratch_pairs_[k];
                      if (!face_self_[a] || !face_self_[b]) return;
                      const double gap = fraction * std::max(face_margin_[a], face_margin_[b]);
-                     if (triangles_apart(cloth_planes_, a, cloth_faces_, x, end, cloth_planes_, b, cloth_faces_, x, end,
-                                         gap))
-                       return;
-                     const Sweep sweep{&x, &end, &x, &end, gap};
+                     const PlaneSides sides = plane_sides(cloth_planes_, a, cloth_faces_, x, end, cloth_planes_, b,
+                                                          cloth_faces_, x, end, gap, !swept);
+                     if (sides.apart(7, 7)) return;
+                     const Sweep sweep{&x, &end, &x, &end, gap, swept ? nullptr : &sides};
                      expand_triangle_pair(a, b, -1, filter, out, &sweep);
                    });
   }
@@ -292,11 +333,11 @@ void ContactDetection::collect(CollisionStep& step, const ContactFilter& filter,
                      const auto [cf, bf] = candidates[k];
                      if (!face_collide_[cf]) return;
                      const double gap = fraction * face_margin_[cf];
-                     if (triangles_apart(cloth_planes_, cf, cloth_faces_, x, end, body_planes, bf, body_faces,
-                                         body_start, body_end, gap))
-                       return;
+                     const PlaneSides sides = plane_sides(cloth_planes_, cf, cloth_faces_, x, end, body_planes, bf,
+                                                          body_faces, body_start, body_end, gap, !swept);
+                     if (sides.apart(7, 7)) return;
                      const size_t first = out.size();
-                     const Sweep sweep{&x, &end, &body_start, &body_end, gap};
+                     const Sweep sweep{&x, &end, &body_start, &body_end, gap, swept ? nullptr : &sides};
                      expand_triangle_pair(cf, bf, body, filter, out, &sweep);
                      if (filter.pinched_face(cf, body))  // cloth in a body/body pinch: proximity only, no CCD
                        for (size_t j = first; j < out.size(); ++j) out[j].ccd = false;
@@ -357,8 +398,9 @@ void ContactDetection::collect_changed(CollisionStep& step, const ContactFilter&
         if (!leaf_culled_top_.empty() && leaf_culled_top_[a] >= 0 && leaf_culled_top_[a] == leaf_culled_top_[b]) return;
         const int lo = std::min(a, b), hi = std::max(a, b);
         const double gap = fraction * std::max(face_margin_[lo], face_margin_[hi]);
-        if (triangles_apart(cloth_planes_, lo, cloth_faces_, x, end, cloth_planes_, hi, cloth_faces_, x, end, gap))
-          return;
+        const PlaneSides sides =
+            plane_sides(cloth_planes_, lo, cloth_faces_, x, end, cloth_planes_, hi, cloth_faces_, x, end, gap, false);
+        if (sides.apart(7, 7)) return;
         const Sweep sweep{&x, &end, &x, &end, gap};
         expand_triangle_pair(lo, hi, -1, filter, out, &sweep);
       });
@@ -382,9 +424,9 @@ void ContactDetection::collect_changed(CollisionStep& step, const ContactFilter&
       if (!face_collide_[cf]) return;
       state.tree.query(cloth_boxes_[cf], [&](int bf) {
         const double gap = fraction * face_margin_[cf];
-        if (triangles_apart(cloth_planes_, cf, cloth_faces_, x, end, body_planes, bf, state.faces, body_start,
-                            body_end, gap))
-          return;
+        const PlaneSides sides = plane_sides(cloth_planes_, cf, cloth_faces_, x, end, body_planes, bf, state.faces,
+                                             body_start, body_end, gap, false);
+        if (sides.apart(7, 7)) return;
         const size_t first = out.size();
         const Sweep sweep{&x, &end, &body_start, &body_end, gap};
         expand_triangle_pair(cf, bf, body, filter, out, &sweep);
