@@ -13,7 +13,10 @@ namespace weft {
 namespace {
 
 // Levels below this many rows run on one thread (the parallel regions cost more than the rows).
-constexpr int kParallelLevelRows = 2048;
+// 256, not 2048: a 4k-vertex garment's first coarse level (about 500 rows, a quarter of the
+// fine level's blocks) ran serially while the other thread waited, and split it took 8% off
+// the solve (`python -m bench.contact`, drape and dress, module against module).
+constexpr int kParallelLevelRows = 256;
 
 int level_threads(int rows, int threads) { return rows >= kParallelLevelRows ? threads : 1; }
 
