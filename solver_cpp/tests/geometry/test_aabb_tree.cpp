@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <random>
 #include <set>
 
@@ -77,4 +78,43 @@ TEST(AabbTree, ParallelTraversalsEqualTheSerialOnes) {
   const std::set<std::pair<int, int>> culled_found(serial.begin(), serial.end());
   EXPECT_EQ(culled_found, kept);
   EXPECT_LT(kept.size(), expected.size());
+}
+
+// The nearest-first search keeps what a full scan keeps: with "distance" the box's own distance
+// to the point (ties on purpose: boxes repeated), the nearest leaf within the radius and the
+// lowest index among equally near ones. It visits far fewer leaves than there are.
+TEST(AabbTree, TheNearestFirstSearchFindsWhatAFullScanFinds) {
+  std::vector<Aabb> boxes = random_boxes(2000, 3, 0.01);
+  for (int k = 0; k < 200; ++k) boxes[1000 + 5 * k] = boxes[7 * k];  // equally near leaves
+  AabbTree tree;
+  tree.build(boxes);
+  std::mt19937 rng(4);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  long visited = 0;
+  for (int q = 0; q < 500; ++q) {
+    const Vec3 p(unit(rng), unit(rng), 0.3 * unit(rng) - 0.05);
+    const double band = 0.05;
+    int scan = -1;
+    double scan_d = band;
+    for (int k = 0; k < static_cast<int>(boxes.size()); ++k) {
+      const double d = std::sqrt(boxes[k].squared_distance(p));
+      if (d < scan_d || (d == scan_d && scan >= 0 && k < scan)) {
+        scan_d = d;
+        scan = k;
+      }
+    }
+    int found = -1;
+    double found_d = band, radius = band;
+    tree.nearest(p, radius, [&](int k) {
+      ++visited;
+      const double d = std::sqrt(boxes[k].squared_distance(p));
+      if (d < found_d || (d == found_d && found >= 0 && k < found)) {
+        found_d = d;
+        found = k;
+        radius = d;
+      }
+    });
+    ASSERT_EQ(found, scan) << "query " << q;
+  }
+  EXPECT_LT(visited, 500L * 2000 / 20);
 }

@@ -25,11 +25,12 @@ void ContactConstraints::constrain(const Positions& x, const Positions& v, doubl
   const int vertex_count = static_cast<int>(x.rows());
   if (released_.size() != static_cast<size_t>(vertex_count)) released_.assign(vertex_count, 0);
   if (held_.size() != static_cast<size_t>(vertex_count)) held_.assign(vertex_count, 0);
-  // Closest collidable body face within the band, per cloth vertex: each free vertex's box (the
-  // band around it) queried against the body's tree at the step's start. A vertex within the
-  // band of a face is within it of the face's box along every axis, so no contact is missed; a
-  // vertex is looked at once, where a pair of triangles' boxes would list it against every body
-  // face near its triangle (four times as many on a draped sheet).
+  // Closest collidable body face within the band, per cloth vertex and body: a nearest-first
+  // search of the body's tree at the step's start from each free vertex, which skips every
+  // subtree whose box is farther than the band or than the nearest face found so far (a face
+  // is never nearer than its box, so none that could win or tie is skipped). A vertex is looked
+  // at once, where a pair of triangles' boxes would list it against every body face near its
+  // triangle (four times as many on a draped sheet).
   std::vector<double> best(vertex_count, std::numeric_limits<double>::infinity());
   std::vector<Contact> contact(vertex_count);
   std::vector<int> best_face(vertex_count, -1);
@@ -58,22 +59,30 @@ void ContactConstraints::constrain(const Positions& x, const Positions& v, doubl
         if (props.inverse_mass[vtx] == 0.0) continue;
         const Vec3 p = row3(x, vtx);
         const double th = props.body_separation(vtx, body);
-        Aabb band;
-        band.expand(p);
-        band.inflate(kContactBand * th);
-        state.tree.query(band, [&](int bf) {
-          const Vec3 a = row3(start, state.faces(bf, 0)), bb = row3(start, state.faces(bf, 1)),
-                     cc = row3(start, state.faces(bf, 2));
+        double radius = kContactBand * th;
+        int face = -1;
+        double nearest = std::numeric_limits<double>::infinity();
+        Vec3 weights;
+        state.tree.nearest(p, radius, [&](int bf) {
           Vec3 bary;
-          const double d = point_triangle_distance(p, a, bb, cc, bary);
+          const double d = point_triangle_distance(p, row3(start, state.faces(bf, 0)), row3(start, state.faces(bf, 1)),
+                                                   row3(start, state.faces(bf, 2)), bary);
           if (d >= kContactBand * th || d <= 1e-12 * th) return;
-          Vec3 vb = Vec3::Zero();
-          for (int q = 0; q < 3; ++q) {
-            const int bv = state.faces(bf, q);
-            vb += bary[q] * (row3(end, bv) - row3(start, bv)) / h;
+          if (d < nearest || (d == nearest && bf < face)) {
+            nearest = d;
+            face = bf;
+            weights = bary;
+            radius = d;
           }
-          out.push_back({vtx, bf, d, {vtx, body, (p - (bary[0] * a + bary[1] * bb + bary[2] * cc)) / d, vb, 0.0}});
         });
+        if (face < 0) continue;
+        Vec3 closest = Vec3::Zero(), vb = Vec3::Zero();
+        for (int q = 0; q < 3; ++q) {
+          const int bv = state.faces(face, q);
+          closest += weights[q] * row3(start, bv);
+          vb += weights[q] * (row3(end, bv) - row3(start, bv)) / h;
+        }
+        out.push_back({vtx, face, nearest, {vtx, body, (p - closest) / nearest, vb, 0.0}});
       }
     });
     // Ties (a vertex closest to an edge or corner that faces share): the lowest body, then face.

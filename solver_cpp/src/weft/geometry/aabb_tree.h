@@ -30,6 +30,10 @@ struct Aabb {
     return (lo.array() <= b.hi.array()).all() && (b.lo.array() <= hi.array()).all();
   }
   bool contains(const Vec3& p) const { return (lo.array() <= p.array()).all() && (p.array() <= hi.array()).all(); }
+  // Squared distance from p to the box (0 inside): no point of the box is nearer.
+  double squared_distance(const Vec3& p) const {
+    return (lo - p).cwiseMax(p - hi).cwiseMax(0.0).squaredNorm();
+  }
 };
 
 // Boxes of triangles spanning two configurations (start and end of a step), widened by a
@@ -69,6 +73,32 @@ class AabbTree {
   void pairs(const AabbTree& other, std::vector<std::pair<int, int>>& out, int threads = 1) const;
   // Box of all leaves (the tree must not be empty).
   const Aabb& bounds() const { return nodes_[0].box; }
+  // Nearest-first search around point p: visit(leaf) is called for leaves in an order that
+  // tends to bring near leaves first, skipping every subtree whose box is farther from p than
+  // `radius` (strictly), and may lower `radius` (the distance of the best leaf so far). Every
+  // leaf whose box is within the final radius of p is visited, so a search that keeps the
+  // nearest leaf (and the lowest index among equally near ones) finds it as a full scan would.
+  template <class Visit>
+  void nearest(const Vec3& p, double& radius, Visit&& visit) const {
+    if (nodes_.empty()) return;
+    int stack[64];
+    int top = 0;
+    stack[top++] = 0;
+    while (top > 0) {
+      const Node& node = nodes_[stack[--top]];
+      // A little slack keeps a leaf exactly as near as the best (a tie) despite rounding.
+      if (node.box.squared_distance(p) > radius * radius * (1.0 + 1e-9)) continue;
+      if (node.leaf >= 0) {
+        visit(node.leaf);
+        continue;
+      }
+      // The nearer child on top of the stack: visited first.
+      const bool left_nearer =
+          nodes_[node.left].box.squared_distance(p) <= nodes_[node.right].box.squared_distance(p);
+      stack[top++] = left_nearer ? node.right : node.left;
+      stack[top++] = left_nearer ? node.left : node.right;
+    }
+  }
   // visit(leaf) for every leaf whose box overlaps `box` (closed boxes).
   template <class Visit>
   void query(const Aabb& box, Visit&& visit) const {
