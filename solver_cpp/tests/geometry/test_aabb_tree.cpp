@@ -118,3 +118,25 @@ TEST(AabbTree, TheNearestFirstSearchFindsWhatAFullScanFinds) {
   }
   EXPECT_LT(visited, 500L * 2000 / 20);
 }
+
+// Boxes and refits on two threads give the trees of one thread: the same pairs, in order.
+TEST(AabbTree, ParallelRefitsEqualTheSerialOnes) {
+  const std::vector<Aabb> a = random_boxes(6000, 5, 0.01), moved = random_boxes(6000, 6, 0.012);
+  AabbTree serial, parallel;
+  serial.build(a);
+  parallel.build(a);
+  serial.refit(moved, 1);
+  parallel.refit(moved, 2);
+  EXPECT_EQ(serial.bounds().lo, parallel.bounds().lo);
+  EXPECT_EQ(serial.bounds().hi, parallel.bounds().hi);
+  std::vector<std::pair<int, int>> one, two;
+  serial.self_pairs(one);
+  parallel.self_pairs(two);
+  ASSERT_GT(one.size(), 1000u);
+  EXPECT_EQ(one, two);
+  // The boxes of a refit with moved leaves: the pairs are those of the moved boxes.
+  int overlapping = 0;
+  for (size_t i = 0; i < moved.size(); ++i)
+    for (size_t j = i + 1; j < moved.size(); ++j) overlapping += moved[i].overlaps(moved[j]);
+  EXPECT_EQ(static_cast<int>(two.size()), overlapping);
+}

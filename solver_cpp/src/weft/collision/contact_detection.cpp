@@ -139,20 +139,20 @@ ContactDetection::ContactDetection(const Faces& cloth_faces, const Positions& x,
 void ContactDetection::refit_cloth(const Positions& start, const Positions& end, double fraction) {
   swept_cloth_current_ = false;
   if (fraction == 1.0) {
-    triangle_boxes(cloth_faces_, start, end, face_margin_, cloth_boxes_);
+    triangle_boxes(cloth_faces_, start, end, face_margin_, cloth_boxes_, threads_);
   } else {
     scaled_margin_.resize(face_margin_.size());
     for (size_t f = 0; f < face_margin_.size(); ++f) scaled_margin_[f] = fraction * face_margin_[f];
-    triangle_boxes(cloth_faces_, start, end, scaled_margin_, cloth_boxes_);
+    triangle_boxes(cloth_faces_, start, end, scaled_margin_, cloth_boxes_, threads_);
   }
-  cloth_tree_.refit(cloth_boxes_);
+  cloth_tree_.refit(cloth_boxes_, threads_);
 }
 
 const ContactDetection::Body& ContactDetection::refit_body(int body, const Positions& start, const Positions& end) {
   Body& state = bodies_[body];
   swept_body_current_[body] = 0;
-  triangle_boxes(state.faces, start, end, {}, state.boxes);
-  state.tree.refit(state.boxes);
+  triangle_boxes(state.faces, start, end, {}, state.boxes, threads_);
+  state.tree.refit(state.boxes, threads_);
   return state;
 }
 
@@ -372,7 +372,7 @@ void ContactDetection::collect_changed(CollisionStep& step, const ContactFilter&
       scaled_margin_[f] = fraction * face_margin_[f];
       cloth_boxes_[f] = triangle_box(cloth_faces_, x, end, scaled_margin_, f);
     }
-    cloth_tree_.refit(cloth_boxes_);
+    cloth_tree_.refit(cloth_boxes_, threads_);
     cloth_planes_.compute_faces(cloth_faces_, x, end, changed_faces_);
   } else {
     refit_cloth(x, end, fraction);
@@ -414,8 +414,8 @@ void ContactDetection::collect_changed(CollisionStep& step, const ContactFilter&
     const Positions& body_end = step.body_end[b];
     SweptPlanes& body_planes = state.planes;
     if (!swept_body_current_[b]) {  // current: the body does not move within a step
-      triangle_boxes(state.faces, body_start, body_end, {}, state.boxes);
-      state.tree.refit(state.boxes);
+      triangle_boxes(state.faces, body_start, body_end, {}, state.boxes, threads_);
+      state.tree.refit(state.boxes, threads_);
       body_planes.compute(state.faces, body_start, body_end, threads_);
       swept_body_current_[b] = 1;
     }

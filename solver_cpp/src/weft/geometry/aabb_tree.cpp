@@ -7,10 +7,16 @@
 
 namespace weft {
 
+namespace {
+// Below this many boxes the work is not worth a parallel region.
+constexpr int kParallelBoxes = 2048;
+}  // namespace
+
 void triangle_boxes(const Faces& faces, const Positions& start, const Positions& end,
-                    const std::vector<double>& margin, std::vector<Aabb>& boxes) {
+                    const std::vector<double>& margin, std::vector<Aabb>& boxes, int threads) {
   const int count = static_cast<int>(faces.rows());
   boxes.resize(count);
+#pragma omp parallel for schedule(static) num_threads(threads) if (threads > 1 && count >= kParallelBoxes)
   for (int f = 0; f < count; ++f) boxes[f] = triangle_box(faces, start, end, margin, f);
 }
 
@@ -37,6 +43,14 @@ void AabbTree::build(const std::vector<Aabb>& leaves) {
   }
   nodes_.reserve(2 * leaves.size());
   build_range(order, centre, 0, static_cast<int>(order.size()));
+  std::vector<int> height(nodes_.size(), 0);
+  by_height_.clear();
+  for (int n : post_order_) {
+    const Node& node = nodes_[n];
+    if (node.leaf < 0) height[n] = 1 + std::max(height[node.left], height[node.right]);
+    if (static_cast<int>(by_height_.size()) <= height[n]) by_height_.resize(height[n] + 1);
+    by_height_[height[n]].push_back(n);
+  }
   refit(leaves);
 }
 
@@ -63,8 +77,8 @@ int AabbTree::build_range(std::vector<int>& order, std::vector<Vec3>& centre, in
   return index;
 }
 
-void AabbTree::refit(const std::vector<Aabb>& leaves) {
-  for (int n : post_order_) {
+void AabbTree::refit(const std::vector<Aabb>& leaves, int threads) {
+  auto fit = [&](int n) {
     Node& node = nodes_[n];
     if (node.leaf >= 0) {
       node.box = leaves[node.leaf];
@@ -72,6 +86,15 @@ void AabbTree::refit(const std::vector<Aabb>& leaves) {
       node.box = nodes_[node.left].box;
       node.box.expand(nodes_[node.right].box);
     }
+  };
+  if (threads <= 1 || static_cast<int>(nodes_.size()) < 2 * kParallelBoxes) {
+    for (int n : post_order_) fit(n);
+    return;
+  }
+  for (const std::vector<int>& level : by_height_) {
+    const int count = static_cast<int>(level.size());
+#pragma omp parallel for schedule(static) num_threads(threads) if (count >= kParallelBoxes / 4)
+    for (int k = 0; k < count; ++k) fit(level[k]);
   }
 }
 

@@ -37,9 +37,10 @@ struct Aabb {
 };
 
 // Boxes of triangles spanning two configurations (start and end of a step), widened by a
-// per-triangle margin. end may be the same object as start (static boxes).
+// per-triangle margin. end may be the same object as start (static boxes). Each box on its own:
+// the same for any thread count.
 void triangle_boxes(const Faces& faces, const Positions& start, const Positions& end,
-                    const std::vector<double>& margin, std::vector<Aabb>& boxes);
+                    const std::vector<double>& margin, std::vector<Aabb>& boxes, int threads = 1);
 // The box of triangle f alone, as triangle_boxes computes it (margin[f], or none when empty).
 Aabb triangle_box(const Faces& faces, const Positions& start, const Positions& end, const std::vector<double>& margin,
                   int f);
@@ -48,8 +49,9 @@ class AabbTree {
  public:
   // Builds the hierarchy over the given leaf boxes (leaf i is box i).
   void build(const std::vector<Aabb>& leaves);
-  // Same leaves, new boxes: recompute node boxes bottom-up.
-  void refit(const std::vector<Aabb>& leaves);
+  // Same leaves, new boxes: recompute node boxes bottom-up (with threads, one height at a time,
+  // each node from its children only: the same boxes for any thread count).
+  void refit(const std::vector<Aabb>& leaves, int threads = 1);
   bool empty() const { return nodes_.empty(); }
 
   // The hierarchy (node 0 is the root), for per-node data kept outside the tree.
@@ -140,6 +142,7 @@ class AabbTree {
 
   std::vector<Node> nodes_;
   std::vector<int> post_order_;  // children before parents, for refitting
+  std::vector<std::vector<int>> by_height_;  // nodes by height above the leaves (leaves: 0), for refitting
 };
 
 }  // namespace weft
