@@ -29,8 +29,8 @@ Triangle corners(const Faces& faces, int f, const Positions& x) {
 // A's largest corner displacement (every point of a linearly moving triangle stays within it of
 // its start position), widened by kPlaneSlack; infinite when A is degenerate (no plane, nothing
 // is beyond).
-void corner_sides(const SweptPlanes& pa, int a, const Triangle& bs, const Triangle& be, double gap, double slack,
-                  std::array<double, 3>& lo, std::array<double, 3>& hi, double& limit) {
+void corner_sides(const SweptPlanes& pa, int a, const Faces& fb, int b, const Positions& bs, const Positions& be,
+                  double gap, double slack, std::array<double, 3>& lo, std::array<double, 3>& hi, double& limit) {
   const Vec3& n = pa.normal[a];
   if (n == Vec3::Zero()) {
     limit = std::numeric_limits<double>::infinity();
@@ -41,7 +41,9 @@ void corner_sides(const SweptPlanes& pa, int a, const Triangle& bs, const Triang
   limit = (gap + pa.motion[a]) * (1.0 + slack);
   const Vec3& origin = pa.origin[a];
   for (int k = 0; k < 3; ++k) {
-    const double ds = n.dot(bs[k] - origin), de = n.dot(be[k] - origin);
+    const int v = fb(b, k);
+    const double ds = n.dot(row3(bs, v) - origin);
+    const double de = &be == &bs ? ds : n.dot(row3(be, v) - origin);  // static: the same point
     lo[k] = std::min(ds, de);
     hi[k] = std::max(ds, de);
   }
@@ -68,10 +70,8 @@ ContactDetection::PlaneSides plane_sides(const SweptPlanes& pa, int a, const Fac
                                          const Positions& bs, const Positions& be, double gap, bool exact) {
   ContactDetection::PlaneSides sides;
   const double slack = exact ? kPlaneSlack : 0.0;
-  corner_sides(pb, b, corners(fa, a, as), corners(fa, a, ae), gap, slack, sides.cloth_lo, sides.cloth_hi,
-               sides.cloth_limit);
-  corner_sides(pa, a, corners(fb, b, bs), corners(fb, b, be), gap, slack, sides.other_lo, sides.other_hi,
-               sides.other_limit);
+  corner_sides(pb, b, fa, a, as, ae, gap, slack, sides.cloth_lo, sides.cloth_hi, sides.cloth_limit);
+  corner_sides(pa, a, fb, b, bs, be, gap, slack, sides.other_lo, sides.other_hi, sides.other_limit);
   return sides;
 }
 
@@ -214,8 +214,10 @@ void ContactDetection::expand_triangle_pair(int cf, int of, int body, const Cont
   // The sweep's test is boxes_within's, side for side: the box of the pair's first feature (the
   // vertex of a vertex-face pair, the first edge) grown by the gap must overlap the other's (a
   // face's box is its corners' union, an edge's its two corners').
-  // Computed after the filters' early returns (compute_boxes).
-  const bool boxed = sweep != nullptr && !(body >= 0 && filter.pinched_face(cf, body));
+  // Computed after the filters' early returns (compute_boxes). A filter that skips nothing
+  // against this body is not asked about each feature.
+  const bool plain = filter.skips_nothing(body);
+  const bool boxed = sweep != nullptr && !(body >= 0 && !plain && filter.pinched_face(cf, body));
   CornerBoxes cloth, other;
   auto compute_boxes = [&](const Faces& other_faces) {
     if (!boxed) return;
@@ -242,7 +244,7 @@ void ContactDetection::expand_triangle_pair(int cf, int of, int body, const Cont
   if (body < 0) {
     // Cloth/cloth GIA one-way membrane (cloth_untangling.h): triangle pairs across an
     // intersection are skipped, so regions in intersection can pass back; clean cloth cannot enter.
-    if (filter.skip_cloth_pair(cf, of)) return;
+    if (!plain && filter.skip_cloth_pair(cf, of)) return;
     compute_boxes(cloth_faces_);
     for (int v : cloth_own_.face_vertices[cf])
       if (!face_has(cloth_faces_, of, v) && cloth_point_near(v))
@@ -265,24 +267,25 @@ void ContactDetection::expand_triangle_pair(int cf, int of, int body, const Cont
   // still cannot enter. Pierced-only faces stay closed in a body/body pinch region: the
   // squeezed cloth is on the contour of both bodies there, and opening a coarse body's pierced
   // faces (a box's top) let it sink into the lower box.
-  const int body_colour = filter.body_face_colour(of, body);
-  const bool in_pinch = filter.pinched_face(cf, body);
+  const int body_colour = plain ? 0 : filter.body_face_colour(of, body);
+  const bool in_pinch = !plain && filter.pinched_face(cf, body);
   if (body_colour == 3 ||
       (body_colour >= 1 && filter.cloth_face_contour(cf, body) && (body_colour == 2 || !in_pinch)))
     return;
   compute_boxes(b.faces);
   // GIA one-way membrane: features with a cloth vertex coloured inside this body are skipped.
+  auto coloured = [&](int p) { return !plain && filter.coloured(p, body); };
   for (int v : cloth_own_.face_vertices[cf])
-    if (!filter.coloured(v, body) && cloth_point_near(v))
+    if (!coloured(v) && cloth_point_near(v))
       out.push_back({{v, bv(b.faces(of, 0)), bv(b.faces(of, 1)), bv(b.faces(of, 2))}, body, false});
-  const bool face_coloured = filter.coloured(cloth_faces_(cf, 0), body) || filter.coloured(cloth_faces_(cf, 1), body) ||
-                             filter.coloured(cloth_faces_(cf, 2), body);
+  const bool face_coloured =
+      coloured(cloth_faces_(cf, 0)) || coloured(cloth_faces_(cf, 1)) || coloured(cloth_faces_(cf, 2));
   if (!face_coloured)
     for (int k : b.own.face_vertices[of])
       if (other_point_near(k))
         out.push_back({{bv(k), cloth_faces_(cf, 0), cloth_faces_(cf, 1), cloth_faces_(cf, 2)}, body, false});
   for (const auto& e1 : cloth_own_.face_edges[cf])
-    if (!filter.coloured(e1[0], body) && !filter.coloured(e1[1], body))
+    if (!coloured(e1[0]) && !coloured(e1[1]))
       for (const auto& e2 : b.own.face_edges[of])
         if (edges_near(e1, e2)) out.push_back({{e1[0], e1[1], bv(e2[0]), bv(e2[1])}, body, true});
 }
@@ -328,6 +331,7 @@ void ContactDetection::collect(CollisionStep& step, const ContactFilter& filter,
     SweptPlanes& body_planes = bodies_[b].planes;
     body_planes.compute(body_faces, body_start, body_end, threads_);
     swept_body_current_[b] = swept;
+    const bool plain = filter.skips_nothing(body);
     ordered_append(static_cast<std::int64_t>(candidates.size()), kExpandChunk, threads_, pairs, chunk_pairs_,
                    [&](std::int64_t k, std::vector<FeaturePair>& out) {
                      const auto [cf, bf] = candidates[k];
@@ -339,7 +343,7 @@ void ContactDetection::collect(CollisionStep& step, const ContactFilter& filter,
                      const size_t first = out.size();
                      const Sweep sweep{&x, &end, &body_start, &body_end, gap, swept ? nullptr : &sides};
                      expand_triangle_pair(cf, bf, body, filter, out, &sweep);
-                     if (filter.pinched_face(cf, body))  // cloth in a body/body pinch: proximity only, no CCD
+                     if (!plain && filter.pinched_face(cf, body))  // cloth in a body/body pinch: no CCD
                        for (size_t j = first; j < out.size(); ++j) out[j].ccd = false;
                    });
   }
@@ -419,6 +423,7 @@ void ContactDetection::collect_changed(CollisionStep& step, const ContactFilter&
       body_planes.compute(state.faces, body_start, body_end, threads_);
       swept_body_current_[b] = 1;
     }
+    const bool plain = filter.skips_nothing(body);
     ordered_append(changed_count, 16, threads_, pairs, chunk_pairs_, [&](std::int64_t k, std::vector<FeaturePair>& out) {
       const int cf = changed_faces_[k];
       if (!face_collide_[cf]) return;
@@ -430,7 +435,7 @@ void ContactDetection::collect_changed(CollisionStep& step, const ContactFilter&
         const size_t first = out.size();
         const Sweep sweep{&x, &end, &body_start, &body_end, gap};
         expand_triangle_pair(cf, bf, body, filter, out, &sweep);
-        if (filter.pinched_face(cf, body))
+        if (!plain && filter.pinched_face(cf, body))
           for (size_t j = first; j < out.size(); ++j) out[j].ccd = false;
       });
     });

@@ -20,6 +20,11 @@ class ContactFilter {
   virtual bool cloth_face_contour(int /*cloth_face*/, int /*body*/) const { return false; }
   // Cloth face in a body/body pinch region of `body` (its pairs with the body get no CCD).
   virtual bool pinched_face(int /*cloth_face*/, int /*body*/) const { return false; }
+  // True when every query about pairs with `body` (cloth/cloth pairs: body < 0) would give
+  // the default answer above: the expansion then asks none of them (one call per triangle pair
+  // instead of one per feature). False here, so that a filter overriding the queries alone is
+  // still asked.
+  virtual bool skips_nothing(int /*body*/) const { return false; }
 };
 
 }  // namespace weft

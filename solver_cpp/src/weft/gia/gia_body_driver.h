@@ -41,6 +41,11 @@ class GiaBodyDriver {
   bool cloth_face_contour(int f, int body) const {
     return !bodies_[body].cloth_face_contour.empty() && bodies_[body].cloth_face_contour[f];
   }
+  // Nothing coloured against `body`: the three queries above give their defaults.
+  bool clean(int body) const {
+    const Body& b = bodies_[body];
+    return b.inside.empty() && b.face_coloured.empty() && b.cloth_face_contour.empty();
+  }
 
  private:
   struct Body {

@@ -25,6 +25,8 @@ class PinchDriver {
   bool face_in_region(int cloth_face, int body) const {
     return !faces_.empty() && !faces_[body].empty() && faces_[body][cloth_face];
   }
+  // No pinch region of `body`: face_in_region is false for every face.
+  bool no_region(int body) const { return faces_.empty() || faces_[body].empty(); }
   // Cloth vertex in a non-free pair's region with `body`.
   bool held(int p, int body) const { return !held_.empty() && !held_[body].empty() && held_[body][p]; }
   // Per cloth vertex: inside `body` and gripped by a pinch (kept by GIA recovery).
