@@ -60,19 +60,21 @@ bool beyond(const std::array<double, 3>& lo, const std::array<double, 3>& hi, do
   return low > limit || high < -limit;
 }
 
-// The plane test of triangle pair (a of fa, b of fb), corner by corner (ContactDetection::PlaneSides);
+// The plane test of triangle pair (a of fa, b of fb), corner by corner (ContactDetection::PlaneSides):
+// true when either plane keeps the whole triangles apart (then `sides` may be half filled: B's
+// corners against A's plane are measured first, and a separating plane ends the test).
 // `exact`: the pair's list is the proximity list, whose response acts exactly within the gap
 // (the limit gets kPlaneSlack). CCD's lists keep the plain limit: CCD itself reports pairs
 // somewhat beyond its minimum separation (its tolerance grows with each query's extent), so
 // what they list is what they always listed.
-ContactDetection::PlaneSides plane_sides(const SweptPlanes& pa, int a, const Faces& fa, const Positions& as,
-                                         const Positions& ae, const SweptPlanes& pb, int b, const Faces& fb,
-                                         const Positions& bs, const Positions& be, double gap, bool exact) {
-  ContactDetection::PlaneSides sides;
+bool triangles_apart(const SweptPlanes& pa, int a, const Faces& fa, const Positions& as, const Positions& ae,
+                     const SweptPlanes& pb, int b, const Faces& fb, const Positions& bs, const Positions& be,
+                     double gap, bool exact, ContactDetection::PlaneSides& sides) {
   const double slack = exact ? kPlaneSlack : 0.0;
-  corner_sides(pb, b, fa, a, as, ae, gap, slack, sides.cloth_lo, sides.cloth_hi, sides.cloth_limit);
   corner_sides(pa, a, fb, b, bs, be, gap, slack, sides.other_lo, sides.other_hi, sides.other_limit);
-  return sides;
+  if (beyond(sides.other_lo, sides.other_hi, sides.other_limit, 7)) return true;
+  corner_sides(pb, b, fa, a, as, ae, gap, slack, sides.cloth_lo, sides.cloth_hi, sides.cloth_limit);
+  return beyond(sides.cloth_lo, sides.cloth_hi, sides.cloth_limit, 7);
 }
 
 // Triangle pairs per parallel chunk of the plane test and expansion (collect).
@@ -314,9 +316,10 @@ void ContactDetection::collect(CollisionStep& step, const ContactFilter& filter,
                      const auto [a, b] = scratch_pairs_[k];
                      if (!face_self_[a] || !face_self_[b]) return;
                      const double gap = fraction * std::max(face_margin_[a], face_margin_[b]);
-                     const PlaneSides sides = plane_sides(cloth_planes_, a, cloth_faces_, x, end, cloth_planes_, b,
-                                                          cloth_faces_, x, end, gap, !swept);
-                     if (sides.apart(7, 7)) return;
+                     PlaneSides sides;
+                     if (triangles_apart(cloth_planes_, a, cloth_faces_, x, end, cloth_planes_, b, cloth_faces_, x,
+                                         end, gap, !swept, sides))
+                       return;
                      const Sweep sweep{&x, &end, &x, &end, gap, swept ? nullptr : &sides};
                      expand_triangle_pair(a, b, -1, filter, out, &sweep);
                    });
@@ -337,9 +340,10 @@ void ContactDetection::collect(CollisionStep& step, const ContactFilter& filter,
                      const auto [cf, bf] = candidates[k];
                      if (!face_collide_[cf]) return;
                      const double gap = fraction * face_margin_[cf];
-                     const PlaneSides sides = plane_sides(cloth_planes_, cf, cloth_faces_, x, end, body_planes, bf,
-                                                          body_faces, body_start, body_end, gap, !swept);
-                     if (sides.apart(7, 7)) return;
+                     PlaneSides sides;
+                     if (triangles_apart(cloth_planes_, cf, cloth_faces_, x, end, body_planes, bf, body_faces,
+                                         body_start, body_end, gap, !swept, sides))
+                       return;
                      const size_t first = out.size();
                      const Sweep sweep{&x, &end, &body_start, &body_end, gap, swept ? nullptr : &sides};
                      expand_triangle_pair(cf, bf, body, filter, out, &sweep);
@@ -402,9 +406,10 @@ void ContactDetection::collect_changed(CollisionStep& step, const ContactFilter&
         if (!leaf_culled_top_.empty() && leaf_culled_top_[a] >= 0 && leaf_culled_top_[a] == leaf_culled_top_[b]) return;
         const int lo = std::min(a, b), hi = std::max(a, b);
         const double gap = fraction * std::max(face_margin_[lo], face_margin_[hi]);
-        const PlaneSides sides =
-            plane_sides(cloth_planes_, lo, cloth_faces_, x, end, cloth_planes_, hi, cloth_faces_, x, end, gap, false);
-        if (sides.apart(7, 7)) return;
+        PlaneSides sides;
+        if (triangles_apart(cloth_planes_, lo, cloth_faces_, x, end, cloth_planes_, hi, cloth_faces_, x, end, gap, false,
+                            sides))
+          return;
         const Sweep sweep{&x, &end, &x, &end, gap};
         expand_triangle_pair(lo, hi, -1, filter, out, &sweep);
       });
@@ -429,9 +434,10 @@ void ContactDetection::collect_changed(CollisionStep& step, const ContactFilter&
       if (!face_collide_[cf]) return;
       state.tree.query(cloth_boxes_[cf], [&](int bf) {
         const double gap = fraction * face_margin_[cf];
-        const PlaneSides sides = plane_sides(cloth_planes_, cf, cloth_faces_, x, end, body_planes, bf, state.faces,
-                                             body_start, body_end, gap, false);
-        if (sides.apart(7, 7)) return;
+        PlaneSides sides;
+        if (triangles_apart(cloth_planes_, cf, cloth_faces_, x, end, body_planes, bf, state.faces, body_start,
+                            body_end, gap, false, sides))
+          return;
         const size_t first = out.size();
         const Sweep sweep{&x, &end, &body_start, &body_end, gap};
         expand_triangle_pair(cf, bf, body, filter, out, &sweep);

@@ -91,7 +91,7 @@ class ContactDetection {
   // no plane). Every point of a moving face stays within its largest corner displacement of its
   // start plane, and a feature's points over the step are convex combinations of its corners'
   // start and end positions, so a feature whose corners all lie beyond on one side stays more
-  // than the gap from the whole other face, and so does every feature of the other face.
+  // than the gap from the whole other face, hence from each of its features.
   struct PlaneSides {
     std::array<double, 3> cloth_lo, cloth_hi;  // the cloth face's corners against the other's plane
     std::array<double, 3> other_lo, other_hi;  // the other face's corners against the cloth face's
