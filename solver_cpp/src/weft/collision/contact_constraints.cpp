@@ -6,6 +6,7 @@
 #include <limits>
 
 #include "weft/collision/proximity_response.h"
+#include "weft/geometry/closest_points.h"
 #include "weft/common/ordered_append.h"
 #include "weft/common/timer.h"
 
@@ -16,6 +17,8 @@ namespace {
 // caps the approach speed, so a vertex arriving fast ends the step at the thickness instead of
 // being caught by CCD.
 constexpr double kContactBand = 2.0;
+// Cloth faces per parallel work item of the searches.
+constexpr std::int64_t kChunk = 256;
 }  // namespace
 
 void ContactConstraints::constrain(const Positions& x, const Positions& v, double h, const CollisionStep& step,
@@ -42,7 +45,6 @@ void ContactConstraints::constrain(const Positions& x, const Positions& v, doubl
     double distance;
     Contact contact;
   };
-  constexpr std::int64_t kChunk = 256;
   const Faces& cloth_faces = detection.cloth_faces();
   const auto face_count = static_cast<std::int64_t>(cloth_faces.rows());
   std::vector<Near> nearby;
@@ -96,11 +98,12 @@ void ContactConstraints::constrain(const Positions& x, const Positions& v, doubl
       }
     }
   }
+  const std::vector<EdgeNear> edge_near = edge_contacts(x, h, step, detection, props);
+  const std::vector<char> was_released = released_, was_held = held_;
+  std::fill(released_.begin(), released_.end(), 0);
+  std::fill(held_.begin(), held_.end(), 0);
   for (int i = 0; i < vertex_count; ++i) {
-    const bool released = released_[i] != 0, held = held_[i] != 0;
-    released_[i] = 0;
-    held_[i] = 0;
-    if (released || !std::isfinite(best[i]) || filter.projection[i] != Mat3::Identity()) continue;
+    if (was_released[i] || !std::isfinite(best[i]) || filter.projection[i] != Mat3::Identity()) continue;
     Contact c = contact[i];
     const double th = props.body_separation(i, c.body);
     const double target = best[i] < th ? kRepulsionRate * (th - best[i]) / h : (th - best[i]) / h;
@@ -108,14 +111,128 @@ void ContactConstraints::constrain(const Positions& x, const Positions& v, doubl
     // A contact the last solve held with a pushing impulse stays (resting cloth is pressed by
     // this step's forces too, which the velocity before the solve does not show); a new one
     // only when the vertex already approaches faster than the target.
-    if (!held && vn > target) continue;
+    if (!was_held[i] && vn > target) continue;
     c.delta_vn = target - vn;
     filter.constrain_direction(i, c.normal, c.delta_vn);
     held_[i] = 1;  // cleared by impulses() when the constraint pulled
     contacts_.push_back(c);
   }
+  for (const EdgeNear& e : edge_near) {
+    if (was_released[e.a] || was_released[e.b] || filter.projection[e.a] != Mat3::Identity() ||
+        filter.projection[e.b] != Mat3::Identity())
+      continue;
+    const double th = std::max(props.body_separation(e.a, e.body), props.body_separation(e.b, e.body));
+    const double target = e.distance < th ? kRepulsionRate * (th - e.distance) / h : (th - e.distance) / h;
+    const Vec3 v_point = (1.0 - e.s) * row3(v, e.a) + e.s * row3(v, e.b);
+    const double vn = (v_point - e.body_velocity).dot(e.normal);
+    if (!(was_held[e.a] && was_held[e.b]) && vn > target) continue;
+    // Both ends move at the target normal speed: the edge's contact point does too.
+    for (int i : {e.a, e.b}) {
+      const double delta = target - (row3(v, i) - e.body_velocity).dot(e.normal);
+      filter.constrain_direction(i, e.normal, delta);
+      held_[i] = 1;
+      contacts_.push_back({i, e.body, e.normal, e.body_velocity, delta, 0.0});
+    }
+  }
   frame.contact_constraints += static_cast<int>(contacts_.size());
   frame.proximity_seconds += timer.seconds();
+}
+
+// Cloth edges across a body edge (a coarse sheet hooked on a thin limb, a strap over a box
+// corner): both ends may lie beyond the band while the edge touches the body, where no vertex
+// contact sees it. Only the body's sharp edges can be touched so (sharp_edges.h); each cloth
+// edge gets the closest of them within the band (at an interior point of the cloth edge),
+// searched from the edge's midpoint with the band plus half its length.
+std::vector<ContactConstraints::EdgeNear> ContactConstraints::edge_contacts(const Positions& x, double h,
+                                                                           const CollisionStep& step,
+                                                                           const ContactDetection& detection,
+                                                                           const ContactProperties& props) {
+  std::vector<EdgeNear> edge_near;
+  const Faces& cloth_faces = detection.cloth_faces();
+  const auto face_count = static_cast<std::int64_t>(cloth_faces.rows());
+  if (sharp_.size() != detection.bodies().size()) {
+    sharp_.clear();
+    for (const ContactDetection::Body& body : detection.bodies()) sharp_.emplace_back(body.faces);
+  }
+  double longest_edge = 0.0, smallest_separation = std::numeric_limits<double>::infinity();
+  for (std::int64_t cf = 0; cf < face_count; ++cf) {
+    if (!detection.face_collide()[cf]) continue;
+    for (int c = 0; c < 3; ++c) {
+      const int a = cloth_faces(cf, c), b = cloth_faces(cf, (c + 1) % 3);
+      longest_edge = std::max(longest_edge, (row3(x, a) - row3(x, b)).norm());
+      smallest_separation = std::min(smallest_separation, props.thickness[a]);
+    }
+  }
+  // The bodies with sharp edges, each with the box their edges can reach cloth within.
+  std::vector<int> sharp_bodies;
+  std::vector<Aabb> reach;
+  double thickest = 0.0;
+  for (double t : props.thickness) thickest = std::max(thickest, t);
+  for (size_t bi = 0; bi < detection.bodies().size(); ++bi) {
+    if (!detection.bodies()[bi].collide) continue;
+    const double offset = props.body_offset.empty() ? 0.0 : props.body_offset[bi];
+    if (sharp_[bi].update(detection.bodies()[bi].faces, step.body_start[bi], longest_edge,
+                          smallest_separation + offset) == 0)
+      continue;
+    sharp_bodies.push_back(static_cast<int>(bi));
+    Aabb box = sharp_[bi].tree().bounds();
+    box.inflate(kContactBand * (thickest + offset));
+    reach.push_back(box);
+  }
+  if (!sharp_bodies.empty()) {
+    ordered_append(face_count, kChunk, detection.threads(), edge_near, [&](std::int64_t cf, std::vector<EdgeNear>& out) {
+      if (!detection.face_collide()[cf]) return;
+      for (const auto& edge : detection.cloth_ownership().face_edges[cf]) {
+        const int a = edge[0], b = edge[1];
+        if (props.inverse_mass[a] == 0.0 || props.inverse_mass[b] == 0.0) continue;
+        const Vec3 pa = row3(x, a), pb = row3(x, b);
+        Aabb segment;
+        segment.expand(pa);
+        segment.expand(pb);
+        const double half_length = 0.5 * (pb - pa).norm();
+        EdgeNear found{a, b, 0.0, std::numeric_limits<double>::infinity(), -1, Vec3::Zero(), Vec3::Zero()};
+        for (size_t k = 0; k < sharp_bodies.size(); ++k) {
+          if (!segment.overlaps(reach[k])) continue;
+          const int body = sharp_bodies[k];
+          const Positions& start = step.body_start[body];
+          const Positions& end = step.body_end[body];
+          const SharpEdges& sharp = sharp_[body];
+          const double th = std::max(props.body_separation(a, body), props.body_separation(b, body));
+          // Only edges sharp for this cloth edge's length can catch it (sharp_edges.h).
+          const double length = 2.0 * half_length;
+          if (!sharp.sharp_for(sharp.sharpest(), length, th)) continue;
+          const double band = kContactBand * th;
+          double nearest = band, radius = band + half_length, along = 0.0, at = 0.0;
+          int nearest_leaf = -1;
+          sharp.tree().nearest(0.5 * (pa + pb), radius, [&](int leaf) {
+            if (!sharp.sharp_for(sharp.sharpness(leaf), length, th)) return;
+            const std::array<int, 2>& be = sharp.edge(leaf);
+            double s_cloth, t_body;
+            const double d = segment_segment_distance(pa, pb, row3(start, be[0]), row3(start, be[1]), s_cloth, t_body);
+            if (s_cloth <= 0.0 || s_cloth >= 1.0 || d <= 1e-12 * th) return;
+            if (d < nearest || (d == nearest && leaf < nearest_leaf)) {
+              nearest = d;
+              along = s_cloth;
+              at = t_body;
+              nearest_leaf = leaf;
+              radius = d + half_length;  // no edge nearer the segment lies farther from its midpoint
+            }
+          });
+          // The nearest body wins; on a tie the lower one (bodies go in increasing order).
+          if (nearest_leaf < 0 || !(nearest < found.distance)) continue;
+          const std::array<int, 2>& be = sharp.edge(nearest_leaf);
+          const Vec3 q0 = row3(start, be[0]), q1 = row3(start, be[1]);
+          found.distance = nearest;
+          found.s = along;
+          found.body = body;
+          found.normal = ((1.0 - along) * pa + along * pb - ((1.0 - at) * q0 + at * q1)) / nearest;
+          found.body_velocity = ((1.0 - at) * (row3(end, be[0]) - q0) + at * (row3(end, be[1]) - q1)) / h;
+        }
+        if (found.body >= 0) out.push_back(found);
+      }
+    });
+  }
+  return edge_near;
 }
 
 int ContactConstraints::impulses(const VectorX& residual) {

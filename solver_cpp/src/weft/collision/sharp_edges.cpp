@@ -1,0 +1,68 @@
+#include "weft/collision/sharp_edges.h"
+
+#include <algorithm>
+#include <map>
+
+namespace weft {
+
+SharpEdges::SharpEdges(const Faces& faces) {
+  std::map<std::array<int, 2>, int> index;
+  for (Eigen::Index f = 0; f < faces.rows(); ++f)
+    for (int c = 0; c < 3; ++c) {
+      const int a = faces(f, c), b = faces(f, (c + 1) % 3), opposite = faces(f, (c + 2) % 3);
+      const std::array<int, 2> key{std::min(a, b), std::max(a, b)};
+      const auto [it, added] = index.emplace(key, static_cast<int>(edges_.size()));
+      if (added) {
+        edges_.push_back(key);
+        faces_.push_back({static_cast<int>(f), -1});
+        far_.push_back(-1);
+      } else if (faces_[it->second][1] < 0) {
+        faces_[it->second][1] = static_cast<int>(f);
+        far_[it->second] = opposite;
+      }
+    }
+}
+
+int SharpEdges::update(const Faces& faces, const Positions& x, double longest_cloth_edge,
+                       double smallest_separation) {
+  normals_.resize(faces.rows());
+  for (Eigen::Index f = 0; f < faces.rows(); ++f) {
+    const Vec3 a = row3(x, faces(f, 0));
+    const Vec3 n = (row3(x, faces(f, 1)) - a).cross(row3(x, faces(f, 2)) - a);
+    const double length = n.norm();
+    normals_[f] = length > 0.0 ? Vec3(n / length) : Vec3::Zero();
+  }
+  std::vector<int> sharp;
+  sharpness_.clear();
+  sharpest_ = 0.0;
+  for (size_t e = 0; e < edges_.size(); ++e) {
+    const auto [f0, f1] = faces_[e];
+    double sharpness = 2.0;  // a border
+    if (f1 >= 0) {
+      // Convex when the far corner of the second face lies below the first face's plane.
+      if ((row3(x, far_[e]) - row3(x, edges_[e][0])).dot(normals_[f0]) >= 0.0) continue;
+      sharpness = (normals_[f0] - normals_[f1]).norm();
+    }
+    if (!sharp_for(sharpness, longest_cloth_edge, smallest_separation)) continue;
+    sharp.push_back(static_cast<int>(e));
+    sharpness_.push_back(sharpness);
+    sharpest_ = std::max(sharpest_, sharpness);
+  }
+  boxes_.resize(sharp.size());
+  for (size_t k = 0; k < sharp.size(); ++k) {
+    Aabb& box = boxes_[k];
+    box.lo = box.hi = row3(x, edges_[sharp[k]][0]);
+    box.expand(row3(x, edges_[sharp[k]][1]));
+  }
+  // The same edges as last time (a rigid part): the tree's boxes are refitted, not rebuilt.
+  if (!boxes_.empty()) {
+    if (sharp == sharp_ && !tree_.empty())
+      tree_.refit(boxes_);
+    else
+      tree_.build(boxes_);
+  }
+  sharp_.swap(sharp);
+  return static_cast<int>(sharp_.size());
+}
+
+}  // namespace weft

@@ -1,0 +1,51 @@
+// The convex edges of a body sharp enough that a cloth edge can touch them while both of its
+// ends stay clear of the body (a coarse sheet hooked on a thin limb, a strap over a box
+// corner): the only body edges cloth/body edge contacts need to look at.
+//
+// A cloth edge of length L whose ends rest a separation s above the two faces of a convex body
+// edge with exterior angle theta sags towards that edge by up to (L / 2) sin(theta / 2); where
+// that stays below half the separation, the vertex contacts at its ends keep it clear. So an
+// edge is sharp when L_max |n0 - n1| / 4 > s_min / 2 (|n0 - n1| = 2 sin(theta / 2) for the unit
+// normals of its faces), with L_max the longest cloth edge and s_min the smallest separation;
+// an edge with one face (a border) is sharp, and a concave (valley) edge never is. A smooth
+// body finely tessellated against its cloth has none, and costs nothing more.
+#pragma once
+
+#include <array>
+#include <vector>
+
+#include "weft/common/types.h"
+#include "weft/geometry/aabb_tree.h"
+
+namespace weft {
+
+class SharpEdges {
+ public:
+  // Edge topology of a body's faces (fixed for the body's life).
+  explicit SharpEdges(const Faces& faces);
+  // The sharp edges at body positions x, and a tree over their boxes. Returns their count.
+  int update(const Faces& faces, const Positions& x, double longest_cloth_edge, double smallest_separation);
+  bool empty() const { return sharp_.empty(); }
+  const AabbTree& tree() const { return tree_; }
+  // Leaf k of the tree: the k-th sharp edge's vertices, and its sharpness |n0 - n1| (2 on a border).
+  const std::array<int, 2>& edge(int leaf) const { return edges_[sharp_[leaf]]; }
+  double sharpness(int leaf) const { return sharpness_[leaf]; }
+  double sharpest() const { return sharpest_; }
+  // Whether an edge of this sharpness can catch a cloth edge of this length kept `separation` off.
+  static bool sharp_for(double sharpness, double cloth_edge_length, double separation) {
+    return cloth_edge_length * sharpness > 2.0 * separation;
+  }
+
+ private:
+  std::vector<std::array<int, 2>> edges_;   // vertices, lower first
+  std::vector<std::array<int, 2>> faces_;   // the edge's faces; [1] = -1 on a border
+  std::vector<int> far_;                    // the second face's corner off the edge (-1 on a border)
+  std::vector<Vec3> normals_;               // per update: unit face normals
+  std::vector<Aabb> boxes_;                 // per update: per sharp edge
+  std::vector<int> sharp_;                  // per update: sharp edge ids, increasing
+  std::vector<double> sharpness_;           // per update: per sharp edge
+  double sharpest_ = 0.0;
+  AabbTree tree_;
+};
+
+}  // namespace weft
