@@ -98,7 +98,6 @@ void ContactConstraints::constrain(const Positions& x, const Positions& v, doubl
       }
     }
   }
-  const std::vector<EdgeNear> edge_near = edge_contacts(x, h, step, detection, props);
   const std::vector<char> was_released = released_, was_held = held_;
   std::fill(released_.begin(), released_.end(), 0);
   std::fill(held_.begin(), held_.end(), 0);
@@ -117,10 +116,12 @@ void ContactConstraints::constrain(const Positions& x, const Positions& v, doubl
     held_[i] = 1;  // cleared by impulses() when the constraint pulled
     contacts_.push_back(c);
   }
-  for (const EdgeNear& e : edge_near) {
-    if (was_released[e.a] || was_released[e.b] || filter.projection[e.a] != Mat3::Identity() ||
-        filter.projection[e.b] != Mat3::Identity())
-      continue;
+  // Edges are looked at only where neither end is held by a vertex contact or was released.
+  std::vector<char> open_end(vertex_count);
+  for (int i = 0; i < vertex_count; ++i)
+    open_end[i] = !was_released[i] && filter.projection[i] == Mat3::Identity() && props.inverse_mass[i] != 0.0;
+  for (const EdgeNear& e : edge_contacts(x, h, step, detection, props, open_end)) {
+    if (filter.projection[e.a] != Mat3::Identity() || filter.projection[e.b] != Mat3::Identity()) continue;
     const double th = std::max(props.body_separation(e.a, e.body), props.body_separation(e.b, e.body));
     const double target = e.distance < th ? kRepulsionRate * (th - e.distance) / h : (th - e.distance) / h;
     const Vec3 v_point = (1.0 - e.s) * row3(v, e.a) + e.s * row3(v, e.b);
@@ -146,7 +147,8 @@ void ContactConstraints::constrain(const Positions& x, const Positions& v, doubl
 std::vector<ContactConstraints::EdgeNear> ContactConstraints::edge_contacts(const Positions& x, double h,
                                                                            const CollisionStep& step,
                                                                            const ContactDetection& detection,
-                                                                           const ContactProperties& props) {
+                                                                           const ContactProperties& props,
+                                                                           const std::vector<char>& open_end) {
   std::vector<EdgeNear> edge_near;
   const Faces& cloth_faces = detection.cloth_faces();
   const auto face_count = static_cast<std::int64_t>(cloth_faces.rows());
@@ -184,7 +186,7 @@ std::vector<ContactConstraints::EdgeNear> ContactConstraints::edge_contacts(cons
       if (!detection.face_collide()[cf]) return;
       for (const auto& edge : detection.cloth_ownership().face_edges[cf]) {
         const int a = edge[0], b = edge[1];
-        if (props.inverse_mass[a] == 0.0 || props.inverse_mass[b] == 0.0) continue;
+        if (!open_end[a] || !open_end[b]) continue;
         const Vec3 pa = row3(x, a), pb = row3(x, b);
         Aabb segment;
         segment.expand(pa);

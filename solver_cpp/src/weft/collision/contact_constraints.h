@@ -70,8 +70,10 @@ class ContactConstraints {
     int body;
     Vec3 normal, body_velocity;
   };
+  // The closest sharp body edge of every cloth edge both of whose ends are open_end.
   std::vector<EdgeNear> edge_contacts(const Positions& x, double h, const CollisionStep& step,
-                                      const ContactDetection& detection, const ContactProperties& props);
+                                      const ContactDetection& detection, const ContactProperties& props,
+                                      const std::vector<char>& open_end);
 
   std::vector<Contact> contacts_;
   std::vector<char> released_;  // per cloth vertex: its constraint pulled last step, free this step
