@@ -6,9 +6,10 @@
 // edge with exterior angle theta sags towards that edge by up to (L / 2) sin(theta / 2); where
 // that stays below half the separation, the vertex contacts at its ends keep it clear. So an
 // edge is sharp when L_max |n0 - n1| / 4 > s_min / 2 (|n0 - n1| = 2 sin(theta / 2) for the unit
-// normals of its faces), with L_max the longest cloth edge and s_min the smallest separation;
-// an edge with one face (a border) is sharp, and a concave (valley) edge never is. A smooth
-// body finely tessellated against its cloth has none, and costs nothing more.
+// normals of its faces), with L_max the longest cloth edge and s_min the smallest separation.
+// An edge with one face (a border) counts as a knife edge, |n0 - n1| = 2; a concave (valley)
+// edge is never sharp; an edge of more than two faces is judged by its first two. A smooth body
+// finely tessellated against its cloth has none, and costs nothing more.
 #pragma once
 
 #include <array>
