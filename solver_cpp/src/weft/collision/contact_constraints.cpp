@@ -36,30 +36,32 @@ void ContactConstraints::constrain(const Positions& x, const Positions& v, doubl
   // triangle (four times as many on a draped sheet).
   std::vector<double> best(vertex_count, std::numeric_limits<double>::infinity());
   std::vector<Contact> contact(vertex_count);
-  std::vector<int> best_face(vertex_count, -1);
   // Distances computed in parallel over fixed chunks of cloth faces (each vertex with the face
-  // that owns it), then reduced in that order: the same contacts as one serial pass.
+  // that owns it, against every body in order), then written in that order: the same contacts
+  // as one serial pass.
   struct Near {
-    int vertex;
-    int face;  // of the body
     double distance;
     Contact contact;
   };
   const Faces& cloth_faces = detection.cloth_faces();
   const auto face_count = static_cast<std::int64_t>(cloth_faces.rows());
-  std::vector<Near> nearby;
+  std::vector<int> bodies;
   for (size_t b = 0; b < detection.bodies().size(); ++b) {
     if (!detection.bodies()[b].collide) continue;
-    const int body = static_cast<int>(b);
-    const Positions& start = step.body_start[b];
-    const Positions& end = step.body_end[b];
-    const ContactDetection::Body& state = detection.refit_body(body, start, start);
-    nearby.clear();
-    ordered_append(face_count, kChunk, detection.threads(), nearby, [&](std::int64_t cf, std::vector<Near>& out) {
-      if (!detection.face_collide()[cf]) return;
-      for (int vtx : detection.cloth_ownership().face_vertices[cf]) {
-        if (props.inverse_mass[vtx] == 0.0) continue;
-        const Vec3 p = row3(x, vtx);
+    bodies.push_back(static_cast<int>(b));
+    detection.refit_body(static_cast<int>(b), step.body_start[b], step.body_start[b]);
+  }
+  std::vector<Near> nearby;
+  ordered_append(face_count, kChunk, detection.threads(), nearby, [&](std::int64_t cf, std::vector<Near>& out) {
+    if (!detection.face_collide()[cf]) return;
+    for (int vtx : detection.cloth_ownership().face_vertices[cf]) {
+      if (props.inverse_mass[vtx] == 0.0) continue;
+      const Vec3 p = row3(x, vtx);
+      Near found{std::numeric_limits<double>::infinity(), {}};
+      for (int body : bodies) {
+        const Positions& start = step.body_start[body];
+        const Positions& end = step.body_end[body];
+        const ContactDetection::Body& state = detection.bodies()[body];
         const double th = props.body_separation(vtx, body);
         double radius = kContactBand * th;
         int face = -1;
@@ -77,26 +79,23 @@ void ContactConstraints::constrain(const Positions& x, const Positions& v, doubl
             radius = d;
           }
         });
-        if (face < 0) continue;
+        // Ties (a vertex closest to an edge or corner that faces share): the lowest body, then
+        // face (the search keeps the lowest face of a body).
+        if (face < 0 || !(nearest < found.distance)) continue;
         Vec3 closest = Vec3::Zero(), vb = Vec3::Zero();
         for (int q = 0; q < 3; ++q) {
           const int bv = state.faces(face, q);
           closest += weights[q] * row3(start, bv);
           vb += weights[q] * (row3(end, bv) - row3(start, bv)) / h;
         }
-        out.push_back({vtx, face, nearest, {vtx, body, (p - closest) / nearest, vb, 0.0}});
+        found = {nearest, {vtx, body, (p - closest) / nearest, vb, 0.0}};
       }
-    });
-    // Ties (a vertex closest to an edge or corner that faces share): the lowest body, then face.
-    for (const Near& near : nearby) {
-      const int i = near.vertex;
-      if (near.distance < best[i] ||
-          (near.distance == best[i] && contact[i].body == body && near.face < best_face[i])) {
-        best[i] = near.distance;
-        best_face[i] = near.face;
-        contact[i] = near.contact;
-      }
+      if (std::isfinite(found.distance)) out.push_back(found);
     }
+  });
+  for (const Near& near : nearby) {
+    best[near.contact.vertex] = near.distance;
+    contact[near.contact.vertex] = near.contact;
   }
   const std::vector<char> was_released = released_, was_held = held_;
   std::fill(released_.begin(), released_.end(), 0);
