@@ -151,33 +151,30 @@ std::vector<ContactConstraints::EdgeNear> ContactConstraints::edge_contacts(cons
   std::vector<EdgeNear> edge_near;
   const Faces& cloth_faces = detection.cloth_faces();
   const auto face_count = static_cast<std::int64_t>(cloth_faces.rows());
-  if (sharp_.size() != detection.bodies().size()) {
+  if (sharp_.size() != detection.bodies().size()) {  // once: body topology, thickness range
     sharp_.clear();
     for (const ContactDetection::Body& body : detection.bodies()) sharp_.emplace_back(body.faces);
+    const auto [thinnest, thickest] = std::minmax_element(props.thickness.begin(), props.thickness.end());
+    thinnest_ = thinnest != props.thickness.end() ? *thinnest : 0.0;
+    thickest_ = thickest != props.thickness.end() ? *thickest : 0.0;
   }
-  double longest_edge = 0.0, smallest_separation = std::numeric_limits<double>::infinity();
+  double longest_edge = 0.0;
   for (std::int64_t cf = 0; cf < face_count; ++cf) {
     if (!detection.face_collide()[cf]) continue;
-    for (int c = 0; c < 3; ++c) {
-      const int a = cloth_faces(cf, c), b = cloth_faces(cf, (c + 1) % 3);
-      longest_edge = std::max(longest_edge, (row3(x, a) - row3(x, b)).norm());
-      smallest_separation = std::min(smallest_separation, props.thickness[a]);
-    }
+    for (int c = 0; c < 3; ++c)
+      longest_edge = std::max(longest_edge, (row3(x, cloth_faces(cf, c)) - row3(x, cloth_faces(cf, (c + 1) % 3))).norm());
   }
   // The bodies with sharp edges, each with the box their edges can reach cloth within.
   std::vector<int> sharp_bodies;
   std::vector<Aabb> reach;
-  double thickest = 0.0;
-  for (double t : props.thickness) thickest = std::max(thickest, t);
   for (size_t bi = 0; bi < detection.bodies().size(); ++bi) {
     if (!detection.bodies()[bi].collide) continue;
     const double offset = props.body_offset.empty() ? 0.0 : props.body_offset[bi];
-    if (sharp_[bi].update(detection.bodies()[bi].faces, step.body_start[bi], longest_edge,
-                          smallest_separation + offset) == 0)
+    if (sharp_[bi].update(detection.bodies()[bi].faces, step.body_start[bi], longest_edge, thinnest_ + offset) == 0)
       continue;
     sharp_bodies.push_back(static_cast<int>(bi));
     Aabb box = sharp_[bi].tree().bounds();
-    box.inflate(kContactBand * (thickest + offset));
+    box.inflate(kContactBand * (thickest_ + offset));
     reach.push_back(box);
   }
   if (!sharp_bodies.empty()) {

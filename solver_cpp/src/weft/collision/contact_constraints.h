@@ -79,6 +79,7 @@ class ContactConstraints {
   std::vector<char> released_;  // per cloth vertex: its constraint pulled last step, free this step
   std::vector<char> held_;      // per cloth vertex: constrained last step with a pushing impulse
   std::vector<SharpEdges> sharp_;  // per body
+  double thinnest_ = 0.0, thickest_ = 0.0;  // cloth vertex thicknesses, for the sharp edges
 };
 
 }  // namespace weft
