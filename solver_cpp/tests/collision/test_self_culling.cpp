@@ -83,6 +83,45 @@ TEST(SelfCulling, TwoSeparateSheetsAreNotOnePatch) {
   EXPECT_GE(culled, 2);  // each sheet on its own is culled
 }
 
+TEST(SelfCulling, ASheetTurningOverTheStepIsNotCulled) {
+  // A flat sheet whose end position is turned 150 degrees about the z axis: over the step its
+  // normals sweep 150 degrees, so no cone holding them all is narrower than 75 degrees, wider
+  // than any culled cone (60): no node is culled and every pair the boxes give is kept. Turned
+  // 20 degrees, the whole sheet is still one patch.
+  const Grid grid(12);
+  std::vector<Aabb> boxes;
+  auto turned = [&](double degrees) {
+    const double a = degrees * 3.14159265358979323846 / 180.0;
+    Positions end = grid.x;
+    for (int v = 0; v < end.rows(); ++v) {
+      const double px = grid.x(v, 0), py = grid.x(v, 1);
+      end(v, 0) = std::cos(a) * px - std::sin(a) * py;
+      end(v, 1) = std::sin(a) * px + std::cos(a) * py;
+    }
+    return end;
+  };
+  const std::vector<char> all_self(grid.faces.rows(), 1);
+  for (const double degrees : {150.0, 20.0}) {
+    const Positions end = turned(degrees);
+    triangle_boxes(grid.faces, grid.x, end, std::vector<double>(grid.faces.rows(), 0.001), boxes);
+    AabbTree tree;
+    tree.build(boxes);
+    SelfCollisionCulling culling;
+    culling.rebuild(tree, grid.faces, all_self);
+    const int culled = culling.update(tree, grid.faces, grid.x, end, 0.001);
+    std::vector<std::pair<int, int>> all, kept;
+    tree.self_pairs(all);
+    tree.self_pairs(kept, &culling.culled());
+    if (degrees > 120.0) {
+      EXPECT_EQ(culled, 0);
+      EXPECT_EQ(kept.size(), all.size());
+    } else {
+      EXPECT_EQ(culled, 1);  // the root
+      EXPECT_TRUE(kept.empty());
+    }
+  }
+}
+
 TEST(SelfCulling, AnIncrementalUpdateCullsAsAFullOne) {
   // A wavy sheet moving over a step; then, again and again, a few vertices get a new end
   // position (as CCD impulses change them): update_changed must give what a full update gives.

@@ -10,15 +10,16 @@ namespace weft {
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-// Cones at or above this half-angle are not culled. Below 90 degrees the projection of a
+// Cones of half-angle 60 degrees or more are not culled. Below 90 degrees the projection of a
 // connected patch with a clear boundary is one-to-one, so the patch is the graph of a function
 // over its projection with slope at most tan(half-angle); two of its points within `margin` of
 // each other are then joined on the surface by a path no longer than margin / cos(half-angle),
 // here twice the margin: neighbours whose interaction is elastic, not contact. Near 90 degrees
 // that bound is lost (the two walls of a steep tent-shaped fold are within a thickness of each
-// other yet far apart on the cloth), so the limit is 60 degrees.
-constexpr double kMaxHalfAngle = kPi / 3.0;
+// other yet far apart on the cloth), so the limit is 60 degrees: a unit control lies inside
+// the cone of a unit axis when axis . control > cos(60 degrees) = 1/2, here a little more so
+// that rounding of the dot product cannot admit one beyond the limit.
+constexpr double kMinCosine = 0.5 + 1e-12;
 
 std::array<int, 2> edge_key(int a, int b) { return {std::min(a, b), std::max(a, b)}; }
 
@@ -42,10 +43,6 @@ std::vector<std::array<int, 2>> symmetric_difference(const std::vector<std::arra
     }
   }
   return out;
-}
-
-double angle_between(const Vec3& a, const Vec3& b) {
-  return std::atan2(a.cross(b).norm(), a.dot(b));
 }
 
 }  // namespace
@@ -98,7 +95,6 @@ void SelfCollisionCulling::rebuild(const AabbTree& tree, const Faces& faces, con
     }
     connected_[n] = components == 1;
   }
-  cone_.assign(nodes, {});
   culled_.assign(nodes, 0);
   test_.assign(nodes, -1);
   last_margin_ = -1.0;
@@ -112,56 +108,80 @@ void SelfCollisionCulling::rebuild(const AabbTree& tree, const Faces& faces, con
       parent_[tree.right(n)] = n;
     }
   }
-  // Nodes by height (leaves 0): the cones of one height depend only on the height below.
-  std::vector<int> height(nodes, 0);
-  by_height_.clear();
+  // Leaf order: post-order visits a node's subtree as one run, so its faces are contiguous.
+  leaf_order_.clear();
+  first_.assign(nodes, 0);
+  last_.assign(nodes, 0);
   for (int n : tree.post_order()) {
-    if (tree.leaf(n) < 0) height[n] = 1 + std::max(height[tree.left(n)], height[tree.right(n)]);
-    if (static_cast<int>(by_height_.size()) <= height[n]) by_height_.resize(height[n] + 1);
-    by_height_[height[n]].push_back(n);
+    if (tree.leaf(n) >= 0) {
+      first_[n] = static_cast<int>(leaf_order_.size());
+      leaf_order_.push_back(tree.leaf(n));
+      last_[n] = first_[n] + 1;
+    } else {
+      first_[n] = std::min(first_[tree.left(n)], first_[tree.right(n)]);
+      last_[n] = std::max(last_[tree.left(n)], last_[tree.right(n)]);
+    }
+  }
+  controls_.assign(3 * static_cast<size_t>(faces.rows()), Vec3::Zero());
+  no_cone_.assign(faces.rows(), 1);
+}
+
+void SelfCollisionCulling::face_controls(const Faces& faces, int f, const Positions& x, const Positions& x_end) {
+  Vec3* out = &controls_[3 * static_cast<size_t>(f)];
+  const Vec3 a0 = row3(x, faces(f, 0)), b0 = row3(x, faces(f, 1)), c0 = row3(x, faces(f, 2));
+  const Vec3 e1s = b0 - a0, e2s = c0 - a0;
+  const Vec3 n0 = e1s.cross(e2s);
+  const double norm0 = n0.norm();
+  if (&x_end == &x) {  // static: one normal
+    no_cone_[f] = !(norm0 > 0.0);
+    out[0] = no_cone_[f] ? Vec3::Zero() : Vec3(n0 / norm0);
+    return;
+  }
+  const Vec3 a1 = row3(x_end, faces(f, 0)), b1 = row3(x_end, faces(f, 1)), c1 = row3(x_end, faces(f, 2));
+  const Vec3 e1e = b1 - a1, e2e = c1 - a1;
+  const Vec3 m = 0.5 * (e1s.cross(e2e) + e1e.cross(e2s)), n1 = e1e.cross(e2e);
+  const double norm_m = m.norm(), norm1 = n1.norm();
+  no_cone_[f] = !(norm0 > 0.0) || !(norm1 > 0.0);  // degenerate triangle: no cone
+  if (no_cone_[f]) {
+    out[0] = out[1] = out[2] = Vec3::Zero();
+    return;
+  }
+  // A zero middle control adds nothing to the Bezier curve's cone: the start normal stands in.
+  out[0] = n0 / norm0;
+  out[1] = norm_m > 0.0 ? Vec3(m / norm_m) : out[0];
+  out[2] = n1 / norm1;
+}
+
+void SelfCollisionCulling::sum_controls() {
+  const size_t count = leaf_order_.size();
+  control_sum_.resize(count + 1);
+  no_cone_count_.resize(count + 1);
+  control_sum_[0] = Vec3::Zero();
+  no_cone_count_[0] = 0;
+  for (size_t k = 0; k < count; ++k) {
+    const int f = leaf_order_[k];
+    Vec3 sum = controls_[3 * static_cast<size_t>(f)];
+    for (int c = 1; c < controls_per_face_; ++c) sum += controls_[3 * static_cast<size_t>(f) + c];
+    control_sum_[k + 1] = control_sum_[k] + sum;
+    no_cone_count_[k + 1] = no_cone_count_[k] + no_cone_[f];
   }
 }
 
-SelfCollisionCulling::Cone SelfCollisionCulling::merge(const Cone& a, const Cone& b) {
-  if (a.half_angle >= kMaxHalfAngle || b.half_angle >= kMaxHalfAngle) return {a.axis, kPi};
-  const double between = angle_between(a.axis, b.axis);
-  if (between + b.half_angle <= a.half_angle) return a;
-  if (between + a.half_angle <= b.half_angle) return b;
-  const double half = 0.5 * (between + a.half_angle + b.half_angle);
-  if (half >= kMaxHalfAngle) return {a.axis, kPi};
-  // Rotate a's axis towards b's by (half - a.half_angle) in their common plane.
-  const Vec3 normal = a.axis.cross(b.axis);
-  if (normal.norm() <= 1e-300) return {a.axis, half};
-  const Vec3 towards = normal.normalized().cross(a.axis);
-  const double turn = half - a.half_angle;
-  Cone out;
-  out.axis = (std::cos(turn) * a.axis + std::sin(turn) * towards).normalized();
-  out.half_angle = half;
-  return out;
-}
-
-SelfCollisionCulling::Cone SelfCollisionCulling::leaf_cone(const Faces& faces, int leaf, const Positions& x,
-                                                           const Positions& x_end) {
-  const Vec3 a0 = row3(x, faces(leaf, 0)), b0 = row3(x, faces(leaf, 1)), c0 = row3(x, faces(leaf, 2));
-  if (&x_end == &x) {  // static: one normal, a cone of half-angle 0
-    const Vec3 normal = (b0 - a0).cross(c0 - a0);
-    const double norm = normal.norm();
-    if (!(norm > 0.0)) return {Vec3::UnitZ(), kPi};
-    return {normal / norm, 0.0};
+bool SelfCollisionCulling::narrow_cone(int n, Vec3& axis) const {
+  const int first = first_[n], last = last_[n];
+  if (no_cone_count_[last] != no_cone_count_[first]) return false;
+  // Any axis gives a valid cone (the controls are checked against it); the sum of the unit
+  // controls is the usual choice. A difference of prefix sums may lose low bits: harmless.
+  const Vec3 sum = control_sum_[last] - control_sum_[first];
+  const double norm = sum.norm();
+  if (!(norm > 1e-12 * (last - first))) return false;
+  axis = sum / norm;
+  for (int k = first; k < last; ++k) {
+    const Vec3* c = &controls_[3 * static_cast<size_t>(leaf_order_[k])];
+    for (int j = 0; j < controls_per_face_; ++j)
+      if (!(axis.dot(c[j]) > kMinCosine)) return false;
   }
-  const Vec3 a1 = row3(x_end, faces(leaf, 0)), b1 = row3(x_end, faces(leaf, 1)), c1 = row3(x_end, faces(leaf, 2));
-  const Vec3 e1s = b0 - a0, e2s = c0 - a0, e1e = b1 - a1, e2e = c1 - a1;
-  const Vec3 control[3] = {e1s.cross(e2s), 0.5 * (e1s.cross(e2e) + e1e.cross(e2s)), e1e.cross(e2e)};
-  const double norms[3] = {control[0].norm(), control[1].norm(), control[2].norm()};
-  if (!(norms[0] > 0.0) || !(norms[2] > 0.0)) return {Vec3::UnitZ(), kPi};  // degenerate triangle: no cone
-  Vec3 axis = control[0] / norms[0] + control[2] / norms[2];
-  if (norms[1] > 0.0) axis += control[1] / norms[1];
-  if (!(axis.norm() > 1e-12)) return {Vec3::UnitZ(), kPi};
-  Cone cone;
-  cone.axis = axis.normalized();
-  for (int k = 0; k < 3; ++k)
-    if (norms[k] > 0.0) cone.half_angle = std::max(cone.half_angle, angle_between(cone.axis, control[k]));
-  return cone;
+  return true;
 }
 
 int SelfCollisionCulling::update(const AabbTree& tree, const Faces& faces, const Positions& x, const Positions& x_end,
@@ -169,17 +189,13 @@ int SelfCollisionCulling::update(const AabbTree& tree, const Faces& faces, const
   const int nodes = tree.node_count();
   culled_.assign(nodes, 0);
   if (nodes == 0) return 0;
-  // Cones bottom-up, one height at a time, the nodes of a height in parallel (each node's cone
-  // is computed from its own triangle or its children's cones only: any thread count, same bits).
-  for (const std::vector<int>& level : by_height_) {
-    const std::int64_t count = static_cast<std::int64_t>(level.size());
-#pragma omp parallel for schedule(static) num_threads(threads) if (threads > 1 && count > 256)
-    for (std::int64_t k = 0; k < count; ++k) {
-      const int n = level[k];
-      const int leaf = tree.leaf(n);
-      cone_[n] = leaf < 0 ? merge(cone_[tree.left(n)], cone_[tree.right(n)]) : leaf_cone(faces, leaf, x, x_end);
-    }
-  }
+  // Each face's controls from its own triangle only: any thread count, same bits.
+  const int face_count = static_cast<int>(faces.rows());
+  controls_per_face_ = &x_end == &x ? 1 : 3;
+  last_static_ = &x_end == &x;
+#pragma omp parallel for schedule(static) num_threads(threads) if (threads > 1 && face_count > 1024)
+  for (int f = 0; f < face_count; ++f) face_controls(faces, f, x, x_end);
+  sum_controls();
   test_.assign(nodes, -1);
   last_margin_ = margin;
   return cull_from_root(tree, x, x_end, margin);
@@ -196,10 +212,10 @@ int SelfCollisionCulling::cull_from_root(const AabbTree& tree, const Positions& 
     const int n = stack.back();
     stack.pop_back();
     if (tree.leaf(n) >= 0) continue;
+    Vec3 axis;
     if (test_[n] < 0)
-      test_[n] = connected_[n] && cone_[n].half_angle < kMaxHalfAngle &&
-                 static_cast<int>(boundary_[n].size()) <= kMaxBoundaryEdges &&
-                 boundary_clear(n, cone_[n].axis, x, x_end, margin);
+      test_[n] = connected_[n] && static_cast<int>(boundary_[n].size()) <= kMaxBoundaryEdges && narrow_cone(n, axis) &&
+                 boundary_clear(n, axis, x, x_end, margin);
     if (test_[n] > 0) {
       culled_[n] = 1;
       ++culled;
@@ -214,27 +230,18 @@ int SelfCollisionCulling::cull_from_root(const AabbTree& tree, const Positions& 
 int SelfCollisionCulling::update_changed(const AabbTree& tree, const Faces& faces, const Positions& x,
                                          const Positions& x_end, double margin,
                                          const std::vector<char>& face_changed, int threads) {
-  if (margin != last_margin_ || tree.node_count() == 0) return update(tree, faces, x, x_end, margin, threads);
-  // A node's cone and test depend only on its own faces' motion: the nodes above a changed face
-  // get new cones and lose their test result (also those below a culled node, which the
-  // traversal does not reach now: a later call may), the others keep theirs.
-  const int nodes = tree.node_count();
-  dirty_.assign(nodes, 0);
+  if (margin != last_margin_ || last_static_ != (&x_end == &x) || tree.node_count() == 0)
+    return update(tree, faces, x, x_end, margin, threads);
+  // A node's cone and test depend only on its own faces' motion: the changed faces get new
+  // controls and the nodes above them lose their test result (also those below a culled node,
+  // which the traversal does not reach now: a later call may), the others keep theirs. The
+  // prefix sums are redone whole, in the same order as update(): the same bits.
   for (size_t f = 0; f < face_changed.size(); ++f) {
     if (!face_changed[f]) continue;
-    for (int n = leaf_node_[f]; n >= 0 && !dirty_[n]; n = parent_[n]) {
-      dirty_[n] = 1;
-      test_[n] = -1;
-    }
+    face_controls(faces, static_cast<int>(f), x, x_end);
+    for (int n = leaf_node_[f]; n >= 0; n = parent_[n]) test_[n] = -1;
   }
-  // Cones of the dirty nodes, bottom-up by height (serial: few nodes; the same arithmetic as
-  // update(), so the same bits).
-  for (const std::vector<int>& level : by_height_)
-    for (int n : level) {
-      if (!dirty_[n]) continue;
-      const int leaf = tree.leaf(n);
-      cone_[n] = leaf < 0 ? merge(cone_[tree.left(n)], cone_[tree.right(n)]) : leaf_cone(faces, leaf, x, x_end);
-    }
+  sum_controls();
   return cull_from_root(tree, x, x_end, margin);
 }
 
