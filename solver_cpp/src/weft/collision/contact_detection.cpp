@@ -324,33 +324,46 @@ void ContactDetection::collect(CollisionStep& step, const ContactFilter& filter,
                      expand_triangle_pair(a, b, -1, filter, out, &sweep);
                    });
   }
-  for (size_t b = 0; b < bodies_.size(); ++b) {
+  // Every body's candidates first (each traversal in parallel), then one parallel pass over all
+  // of them, body after body: the list is the bodies' lists concatenated, as one pass per body
+  // would give, without a parallel region and its tail per body.
+  const size_t body_count = bodies_.size();
+  body_candidates_.resize(body_count);
+  candidate_start_.assign(body_count + 1, 0);
+  body_plain_.assign(body_count, 1);
+  for (size_t b = 0; b < body_count; ++b) {
+    candidate_start_[b + 1] = candidate_start_[b];
     if (!bodies_[b].collide) continue;
-    const int body = static_cast<int>(b);
     const Positions& body_start = step.body_start[b];
     const Positions& body_end = swept ? step.body_end[b] : body_start;
-    const Faces& body_faces = bodies_[b].faces;
-    const std::vector<std::pair<int, int>>& candidates = body_pairs(body, body_start, body_end);
-    SweptPlanes& body_planes = bodies_[b].planes;
-    body_planes.compute(body_faces, body_start, body_end, threads_);
+    const Body& state = refit_body(static_cast<int>(b), body_start, body_end);
+    body_candidates_[b].clear();
+    cloth_tree_.pairs(state.tree, body_candidates_[b], threads_);
+    bodies_[b].planes.compute(state.faces, body_start, body_end, threads_);
     swept_body_current_[b] = swept;
-    const bool plain = filter.skips_nothing(body);
-    ordered_append(static_cast<std::int64_t>(candidates.size()), kExpandChunk, threads_, pairs, chunk_pairs_,
-                   [&](std::int64_t k, std::vector<FeaturePair>& out) {
-                     const auto [cf, bf] = candidates[k];
-                     if (!face_collide_[cf]) return;
-                     const double gap = fraction * face_margin_[cf];
-                     PlaneSides sides;
-                     if (triangles_apart(cloth_planes_, cf, cloth_faces_, x, end, body_planes, bf, body_faces,
-                                         body_start, body_end, gap, !swept, sides))
-                       return;
-                     const size_t first = out.size();
-                     const Sweep sweep{&x, &end, &body_start, &body_end, gap, swept ? nullptr : &sides};
-                     expand_triangle_pair(cf, bf, body, filter, out, &sweep);
-                     if (!plain && filter.pinched_face(cf, body))  // cloth in a body/body pinch: no CCD
-                       for (size_t j = first; j < out.size(); ++j) out[j].ccd = false;
-                   });
+    body_plain_[b] = filter.skips_nothing(static_cast<int>(b));
+    candidate_start_[b + 1] += static_cast<std::int64_t>(body_candidates_[b].size());
   }
+  ordered_append(candidate_start_[body_count], kExpandChunk, threads_, pairs, chunk_pairs_,
+                 [&](std::int64_t k, std::vector<FeaturePair>& out) {
+                   const auto b = static_cast<size_t>(
+                       std::upper_bound(candidate_start_.begin(), candidate_start_.end(), k) - candidate_start_.begin() - 1);
+                   const auto [cf, bf] = body_candidates_[b][static_cast<size_t>(k - candidate_start_[b])];
+                   if (!face_collide_[cf]) return;
+                   const int body = static_cast<int>(b);
+                   const Positions& body_start = step.body_start[b];
+                   const Positions& body_end = swept ? step.body_end[b] : body_start;
+                   const double gap = fraction * face_margin_[cf];
+                   PlaneSides sides;
+                   if (triangles_apart(cloth_planes_, cf, cloth_faces_, x, end, bodies_[b].planes, bf, bodies_[b].faces,
+                                       body_start, body_end, gap, !swept, sides))
+                     return;
+                   const size_t first = out.size();
+                   const Sweep sweep{&x, &end, &body_start, &body_end, gap, swept ? nullptr : &sides};
+                   expand_triangle_pair(cf, bf, body, filter, out, &sweep);
+                   if (!body_plain_[b] && filter.pinched_face(cf, body))  // cloth in a body/body pinch: no CCD
+                     for (size_t j = first; j < out.size(); ++j) out[j].ccd = false;
+                 });
   swept_cloth_current_ = swept;
   frame.broad_phase_pairs += static_cast<int>(pairs.size());
   frame.broad_phase_seconds += timer.seconds();
@@ -415,36 +428,44 @@ void ContactDetection::collect_changed(CollisionStep& step, const ContactFilter&
       });
     });
   }
-  for (size_t b = 0; b < bodies_.size() && changed_count > 0; ++b) {
-    if (!bodies_[b].collide) continue;
-    Body& state = bodies_[b];
-    const int body = static_cast<int>(b);
-    const Positions& body_start = step.body_start[b];
-    const Positions& body_end = step.body_end[b];
-    SweptPlanes& body_planes = state.planes;
-    if (!swept_body_current_[b]) {  // current: the body does not move within a step
-      triangle_boxes(state.faces, body_start, body_end, {}, state.boxes, threads_);
-      state.tree.refit(state.boxes, threads_);
-      body_planes.compute(state.faces, body_start, body_end, threads_);
-      swept_body_current_[b] = 1;
+  if (changed_count > 0 && any_body_) {
+    body_plain_.assign(bodies_.size(), 1);
+    for (size_t b = 0; b < bodies_.size(); ++b) {
+      if (!bodies_[b].collide) continue;
+      Body& state = bodies_[b];
+      if (!swept_body_current_[b]) {  // current: the body does not move within a step
+        triangle_boxes(state.faces, step.body_start[b], step.body_end[b], {}, state.boxes, threads_);
+        state.tree.refit(state.boxes, threads_);
+        state.planes.compute(state.faces, step.body_start[b], step.body_end[b], threads_);
+        swept_body_current_[b] = 1;
+      }
+      body_plain_[b] = filter.skips_nothing(static_cast<int>(b));
     }
-    const bool plain = filter.skips_nothing(body);
-    ordered_append(changed_count, 16, threads_, pairs, chunk_pairs_, [&](std::int64_t k, std::vector<FeaturePair>& out) {
-      const int cf = changed_faces_[k];
-      if (!face_collide_[cf]) return;
-      state.tree.query(cloth_boxes_[cf], [&](int bf) {
-        const double gap = fraction * face_margin_[cf];
-        PlaneSides sides;
-        if (triangles_apart(cloth_planes_, cf, cloth_faces_, x, end, body_planes, bf, state.faces, body_start,
-                            body_end, gap, false, sides))
-          return;
-        const size_t first = out.size();
-        const Sweep sweep{&x, &end, &body_start, &body_end, gap};
-        expand_triangle_pair(cf, bf, body, filter, out, &sweep);
-        if (!plain && filter.pinched_face(cf, body))
-          for (size_t j = first; j < out.size(); ++j) out[j].ccd = false;
-      });
-    });
+    // One parallel pass over (body, changed face), body after body: the per-body passes' lists
+    // concatenated.
+    const auto body_count = static_cast<std::int64_t>(bodies_.size());
+    ordered_append(body_count * changed_count, 16, threads_, pairs, chunk_pairs_,
+                   [&](std::int64_t k, std::vector<FeaturePair>& out) {
+                     const auto b = static_cast<size_t>(k / changed_count);
+                     const Body& state = bodies_[b];
+                     const int cf = changed_faces_[static_cast<size_t>(k % changed_count)];
+                     if (!state.collide || !face_collide_[cf]) return;
+                     const int body = static_cast<int>(b);
+                     const Positions& body_start = step.body_start[b];
+                     const Positions& body_end = step.body_end[b];
+                     state.tree.query(cloth_boxes_[cf], [&](int bf) {
+                       const double gap = fraction * face_margin_[cf];
+                       PlaneSides sides;
+                       if (triangles_apart(cloth_planes_, cf, cloth_faces_, x, end, state.planes, bf, state.faces,
+                                           body_start, body_end, gap, false, sides))
+                         return;
+                       const size_t first = out.size();
+                       const Sweep sweep{&x, &end, &body_start, &body_end, gap};
+                       expand_triangle_pair(cf, bf, body, filter, out, &sweep);
+                       if (!body_plain_[b] && filter.pinched_face(cf, body))
+                         for (size_t j = first; j < out.size(); ++j) out[j].ccd = false;
+                     });
+                   });
   }
   // Boxes and planes are now those of this pass; the culling too where it was updated.
   swept_cloth_current_ = incremental || !any_self_ || !self_culling_ || changed_count > 0;

@@ -11,6 +11,7 @@
 #pragma once
 
 #include <array>
+#include <cstdint>
 #include <utility>
 #include <vector>
 
@@ -158,6 +159,9 @@ class ContactDetection {
   bool swept_cloth_current_ = false;
   std::vector<char> swept_body_current_;  // per body, the same for its boxes, tree and planes
   std::vector<std::vector<FeaturePair>> chunk_pairs_;  // collect(): per chunk of triangle pairs
+  std::vector<std::vector<std::pair<int, int>>> body_candidates_;  // collect(): per body, (cloth, body face)
+  std::vector<std::int64_t> candidate_start_;  // collect(): body b's candidates start at this index of all
+  std::vector<char> body_plain_;               // per body: the filter skips nothing against it
   int threads_ = 1;
 };
 
