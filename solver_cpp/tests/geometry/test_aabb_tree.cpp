@@ -50,6 +50,13 @@ TEST(AabbTree, ParallelTraversalsEqualTheSerialOnes) {
   serial.clear();
   ta.pairs(tb, serial);
   ASSERT_GT(serial.size(), 100u);
+  std::set<std::pair<int, int>> expected_across;
+  for (int i = 0; i < static_cast<int>(a.size()); ++i)
+    for (int j = 0; j < static_cast<int>(b.size()); ++j)
+      if (a[i].overlaps(b[j])) expected_across.insert({i, j});
+  const std::set<std::pair<int, int>> found_across(serial.begin(), serial.end());
+  EXPECT_EQ(found_across, expected_across);
+  EXPECT_EQ(serial.size(), expected_across.size());
   for (int threads : {2, 5}) {
     parallel.clear();
     ta.pairs(tb, parallel, threads);

@@ -198,23 +198,35 @@ void AabbTree::pairs(const AabbTree& other, std::vector<std::pair<int, int>>& ou
 }
 
 void AabbTree::cross(int a, const AabbTree& tb, int b, bool same, std::vector<std::pair<int, int>>& out) const {
-  const Node& na = nodes_[a];
-  const Node& nb = tb.nodes_[b];
-  if (!na.box.overlaps(nb.box)) return;
-  if (na.leaf >= 0 && nb.leaf >= 0) {
-    if (same)
-      out.emplace_back(std::min(na.leaf, nb.leaf), std::max(na.leaf, nb.leaf));
-    else
-      out.emplace_back(na.leaf, nb.leaf);
-    return;
-  }
-  const bool split_a = nb.leaf >= 0 || (na.leaf < 0 && (na.box.hi - na.box.lo).sum() >= (nb.box.hi - nb.box.lo).sum());
-  if (split_a) {
-    cross(na.left, tb, b, same, out);
-    cross(na.right, tb, b, same, out);
-  } else {
-    cross(a, tb, nb.left, same, out);
-    cross(a, tb, nb.right, same, out);
+  // Depth-first, the larger box split first, the two halves in order: an explicit stack that
+  // visits (and lists) exactly as the recursion would, with each half's boxes tested before it
+  // is pushed. Each step pushes at most two pairs and descends one level in one of the trees
+  // (each under 64 levels deep, see query()), so 256 entries are enough.
+  if (!nodes_[a].box.overlaps(tb.nodes_[b].box)) return;
+  std::pair<int, int> stack[256];
+  int top = 0;
+  stack[top++] = {a, b};
+  while (top > 0) {
+    const auto [ia, ib] = stack[--top];
+    const Node& na = nodes_[ia];
+    const Node& nb = tb.nodes_[ib];
+    if (na.leaf >= 0 && nb.leaf >= 0) {
+      if (same)
+        out.emplace_back(std::min(na.leaf, nb.leaf), std::max(na.leaf, nb.leaf));
+      else
+        out.emplace_back(na.leaf, nb.leaf);
+      continue;
+    }
+    const bool split_a =
+        nb.leaf >= 0 || (na.leaf < 0 && (na.box.hi - na.box.lo).sum() >= (nb.box.hi - nb.box.lo).sum());
+    // Second half first onto the stack: the first is visited first.
+    if (split_a) {
+      if (nodes_[na.right].box.overlaps(nb.box)) stack[top++] = {na.right, ib};
+      if (nodes_[na.left].box.overlaps(nb.box)) stack[top++] = {na.left, ib};
+    } else {
+      if (na.box.overlaps(tb.nodes_[nb.right].box)) stack[top++] = {ia, nb.right};
+      if (na.box.overlaps(tb.nodes_[nb.left].box)) stack[top++] = {ia, nb.left};
+    }
   }
 }
 
