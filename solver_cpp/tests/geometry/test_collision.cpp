@@ -50,6 +50,46 @@ TEST(ExactPredicates, Orient3dSignsAndCoplanarity) {
   EXPECT_EQ(orient3d(o + kA, o + kB, o + kC, o + Vec3(0.25, 0.25, -1.4901161193847656e-8)), 1);
 }
 
+TEST(ExactPredicates, Orient3dMatchesIntegerArithmeticOnNearlyCoplanarPoints) {
+  // Points on lattice planes near 1000 (coordinates n / 2^20, exact in double, as are their
+  // differences), one nudged by -1..1 lattice steps off the plane: the determinant is an exact
+  // integer multiple of 2^-60, computed here in 128-bit integers. Most inputs fail the
+  // floating-point filter and are decided by the exact paths.
+  std::mt19937 rng(7);
+  std::uniform_int_distribution<long long> coord(-4096, 4096), nudge(-1, 1), normal(-3, 3);
+  const double unit = std::ldexp(1.0, -20);
+  const long long base = 1000LL << 20;
+  int zero = 0, nonzero = 0;
+  for (int trial = 0; trial < 4000; ++trial) {
+    const long long nx = normal(rng), ny = normal(rng);  // the plane z = -(nx x + ny y)
+    long long p[4][3];
+    for (auto& q : p) {
+      q[0] = coord(rng);
+      q[1] = coord(rng);
+      q[2] = -(nx * q[0] + ny * q[1]);
+    }
+    p[3][2] += nudge(rng);
+    __int128 det = 0;
+    {
+      long long u[3], v[3], w[3];
+      for (int k = 0; k < 3; ++k) u[k] = p[0][k] - p[3][k], v[k] = p[1][k] - p[3][k], w[k] = p[2][k] - p[3][k];
+      det = static_cast<__int128>(u[0]) * (static_cast<__int128>(v[1]) * w[2] - static_cast<__int128>(v[2]) * w[1]) -
+            static_cast<__int128>(u[1]) * (static_cast<__int128>(v[0]) * w[2] - static_cast<__int128>(v[2]) * w[0]) +
+            static_cast<__int128>(u[2]) * (static_cast<__int128>(v[0]) * w[1] - static_cast<__int128>(v[1]) * w[0]);
+    }
+    // orient3d's sign is that of det[a - d; b - d; c - d] (positive for d below the plane of the
+    // counter-clockwise a, b, c, as in the test above).
+    Vec3 q[4];
+    for (int i = 0; i < 4; ++i)
+      for (int k = 0; k < 3; ++k) q[i][k] = static_cast<double>(base + p[i][k]) * unit;
+    const int expected = det > 0 ? 1 : (det < 0 ? -1 : 0);
+    ASSERT_EQ(orient3d(q[0], q[1], q[2], q[3]), expected) << "trial " << trial;
+    (expected == 0 ? zero : nonzero) += 1;
+  }
+  EXPECT_GT(zero, 500);
+  EXPECT_GT(nonzero, 500);
+}
+
 // orient2d against an exact integer determinant: integer coordinates up to 2^40 (exact in
 // double), points on or next to a line, so the float filter must defer to the expansion.
 TEST(ExactPredicates, Orient2dMatchesExactIntegerSigns) {

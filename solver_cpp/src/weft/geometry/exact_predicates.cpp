@@ -160,6 +160,32 @@ int orient3d_exact_sign(const double* a, const double* b, const double* c, const
   // lie in a plane: the determinant is exactly zero, no expansion needed.
   for (int k = 0; k < 3; ++k)
     if (a[k] == d[k] && b[k] == d[k] && c[k] == d[k]) return 0;
+  // Nearby points (what a near-degenerate test usually has) give exact differences (Sterbenz):
+  // then the six triple products of the differences decide exactly, a quarter of the 4x4
+  // expansion's terms. Differences below 1e-80 could lose the products' low parts to
+  // underflow: those take the expansion.
+  const double* points[3] = {a, b, c};
+  double diff[3][3];
+  bool exact = true;
+  for (int i = 0; i < 3 && exact; ++i)
+    for (int k = 0; k < 3 && exact; ++k) {
+      double e;
+      two_sum(points[i][k], -d[k], diff[i][k], e);
+      exact = e == 0.0 && (diff[i][k] == 0.0 || std::fabs(diff[i][k]) >= 1e-80);
+    }
+  if (exact) {
+    const double* u = diff[0];
+    const double* v = diff[1];
+    const double* w = diff[2];
+    ExactSum det_sum;  // the terms of det above: u . (v x w)
+    det_sum.add_product(u[2], v[0], w[1]);
+    det_sum.add_product(-u[2], v[1], w[0]);
+    det_sum.add_product(v[2], w[0], u[1]);
+    det_sum.add_product(-v[2], w[1], u[0]);
+    det_sum.add_product(w[2], u[0], v[1]);
+    det_sum.add_product(-w[2], u[1], v[0]);
+    return det_sum.sign();
+  }
   const double* rows[4] = {a, b, c, d};
   return coefficient_sign(rows, {-1, -1, -1, -1});
 }
