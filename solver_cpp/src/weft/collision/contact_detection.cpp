@@ -160,10 +160,15 @@ const ContactDetection::Body& ContactDetection::refit_body(int body, const Posit
 
 const std::vector<std::pair<int, int>>& ContactDetection::body_pairs(int body, const Positions& start,
                                                                     const Positions& end) {
-  const Body& state = refit_body(body, start, end);
   scratch_pairs_.clear();
-  cloth_tree_.pairs(state.tree, scratch_pairs_, threads_);
+  body_pairs(body, start, end, scratch_pairs_);
   return scratch_pairs_;
+}
+
+void ContactDetection::body_pairs(int body, const Positions& start, const Positions& end,
+                                  std::vector<std::pair<int, int>>& out) {
+  const Body& state = refit_body(body, start, end);
+  cloth_tree_.pairs(state.tree, out, threads_);
 }
 
 const std::vector<std::pair<int, int>>& ContactDetection::self_intersection_candidates(const Positions& x) {
@@ -336,10 +341,9 @@ void ContactDetection::collect(CollisionStep& step, const ContactFilter& filter,
     if (!bodies_[b].collide) continue;
     const Positions& body_start = step.body_start[b];
     const Positions& body_end = swept ? step.body_end[b] : body_start;
-    const Body& state = refit_body(static_cast<int>(b), body_start, body_end);
     body_candidates_[b].clear();
-    cloth_tree_.pairs(state.tree, body_candidates_[b], threads_);
-    bodies_[b].planes.compute(state.faces, body_start, body_end, threads_);
+    body_pairs(static_cast<int>(b), body_start, body_end, body_candidates_[b]);
+    bodies_[b].planes.compute(bodies_[b].faces, body_start, body_end, threads_);
     swept_body_current_[b] = swept;
     body_plain_[b] = filter.skips_nothing(static_cast<int>(b));
     candidate_start_[b + 1] += static_cast<std::int64_t>(body_candidates_[b].size());

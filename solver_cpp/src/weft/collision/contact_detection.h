@@ -64,6 +64,8 @@ class ContactDetection {
   // Refit body `body`'s tree over start..end (the same object: static) and return its
   // overlapping (cloth face, body face) pairs against the cloth tree as last refitted.
   const std::vector<std::pair<int, int>>& body_pairs(int body, const Positions& start, const Positions& end);
+  // The same, appended to out.
+  void body_pairs(int body, const Positions& start, const Positions& end, std::vector<std::pair<int, int>>& out);
   // Refit body `body`'s boxes and tree over start..end (the same object: static) and return it:
   // the contact constraints query it vertex by vertex.
   const Body& refit_body(int body, const Positions& start, const Positions& end);

@@ -192,7 +192,6 @@ int SelfCollisionCulling::update(const AabbTree& tree, const Faces& faces, const
   // Each face's controls from its own triangle only: any thread count, same bits.
   const int face_count = static_cast<int>(faces.rows());
   controls_per_face_ = &x_end == &x ? 1 : 3;
-  last_static_ = &x_end == &x;
 #pragma omp parallel for schedule(static) num_threads(threads) if (threads > 1 && face_count > 1024)
   for (int f = 0; f < face_count; ++f) face_controls(faces, f, x, x_end);
   sum_controls();
@@ -230,7 +229,7 @@ int SelfCollisionCulling::cull_from_root(const AabbTree& tree, const Positions& 
 int SelfCollisionCulling::update_changed(const AabbTree& tree, const Faces& faces, const Positions& x,
                                          const Positions& x_end, double margin,
                                          const std::vector<char>& face_changed, int threads) {
-  if (margin != last_margin_ || last_static_ != (&x_end == &x) || tree.node_count() == 0)
+  if (margin != last_margin_ || controls_per_face_ != (&x_end == &x ? 1 : 3) || tree.node_count() == 0)
     return update(tree, faces, x, x_end, margin, threads);
   // A node's cone and test depend only on its own faces' motion: the changed faces get new
   // controls and the nodes above them lose their test result (also those below a culled node,

@@ -68,7 +68,7 @@ class SelfCollisionCulling {
 
   std::vector<int> leaf_order_;                         // faces in tree order: each node's are contiguous
   std::vector<int> first_, last_;                       // per node: its faces are leaf_order_[first_, last_)
-  int controls_per_face_ = 1;                           // 1 static (the normal), 3 over a step (n0, m, n1)
+  int controls_per_face_ = 1;                           // last update: 1 static (the normal), 3 over a step (n0, m, n1)
   std::vector<Vec3> controls_;                          // per face, controls_per_face_ unit vectors
   std::vector<char> no_cone_;                           // per face: degenerate, no normal
   std::vector<Vec3> control_sum_;                       // prefix sums in leaf order (size faces + 1)
@@ -77,7 +77,6 @@ class SelfCollisionCulling {
   std::vector<signed char> test_;                       // per node: last test's result, -1 not run
   std::vector<int> parent_, leaf_node_;                 // per node its parent (-1: root); per face its leaf
   double last_margin_ = -1.0;                           // margin of the last update (-1: none yet)
-  bool last_static_ = true;                             // the last update's x_end was x
 };
 
 }  // namespace weft
