@@ -2,12 +2,16 @@
 weft and, with `--peer blender`, by Blender cloth in the same run (same scene, same frame count,
 same thread count), one table row per (scene, solver), metrics from `bench.contact_metrics`.
 
-    python -m bench.contact [--json PATH] [--peer blender] [--scenes a,b] [--frames N] [--threads 2]
+    python -m bench.contact [--json PATH] [--peer blender] [--scenes a,b] [--frames N] [--threads 2] [--repeat N]
 
 s/frame is the wall time of each simulated frame (weft: `Simulation.advance_frame`; Blender:
 `scene.frame_set`), mean and max over the frames after the initial one (the setup, building
 the solver or the cloth cache, is reported apart). `ratio` = Blender s/frame / weft s/frame,
-measured one after the other in this process's run. weft's step breakdown (build, solve,
+measured one after the other in this process's run. With `--repeat N` each scene runs N times,
+weft and the peer alternating which goes first; s/frame is then the median of the runs' means
+and the table shows the range of the per-repeat ratios (on a shared 2-core machine one run's
+ratio has varied by 20% from the next), and weft's repeats must agree bit for bit
+(`repeats_identical`). weft's step breakdown (build, solve,
 collision and GIA seconds per frame, CG iterations per substep, CCD candidates, proximity
 pairs, impact zones, unresolved collisions) comes from its per-frame telemetry.
 """
@@ -121,17 +125,56 @@ def measure(scene: Any, solver: str, run: dict[str, Any], threads: int) -> dict[
     return {"solver": solver, "vertices": scene.vertex_count, "setup_seconds": run["setup_seconds"], **metrics}
 
 
+def repeated_timing(row: dict[str, Any], frame_seconds: list[np.ndarray]) -> None:
+    """s/frame over repeated runs of one solver on one scene: each run's mean, their median (what
+    `s_per_frame_mean` then holds) and the slowest frame of any run."""
+    means = [float(np.mean(s)) for s in frame_seconds if len(s)]
+    row["s_per_frame_runs"] = means
+    if means:
+        row["s_per_frame_mean"] = float(np.median(means))
+        row["s_per_frame_max"] = max(float(np.max(s)) for s in frame_seconds if len(s))
+
+
 def run_scene(name: str, frames: int | None, threads: int, peer: str | None,
-              blender_mass: str = "mapped", self_cost: bool = False) -> list[dict[str, Any]]:
+              blender_mass: str = "mapped", self_cost: bool = False, repeat: int = 1) -> list[dict[str, Any]]:
+    """One scene: weft (and the peer) `repeat` times, alternating which goes first, so that both
+    see the machine's slow and fast spells alike; metrics from each solver's first run."""
+    if repeat < 1:
+        raise ValueError("repeat must be at least 1")
     with tempfile.TemporaryDirectory(prefix=f"weft-contact-{name}-") as tmp:
         wanted = frames or DEFAULT_FRAMES[name]
         scene = build_scene(name, Path(tmp), wanted)
         wanted = min(wanted, scene.frame_count)
-        weft_run = run_weft(scene, wanted, threads)
+        weft_runs: list[dict[str, Any]] = []
+        peer_runs: list[dict[str, Any]] = []
+        peer_failure: str | None = None
+
+        def run_peer_once() -> None:
+            nonlocal peer_failure
+            from bench.blender_peer import run_peer
+
+            if peer_failure is None:
+                try:
+                    peer_runs.append(run_peer(scene, wanted, threads, blender_mass))
+                except RuntimeError as exc:
+                    peer_failure = str(exc)
+
+        for index in range(repeat):
+            peer_first = peer == "blender" and index % 2 == 1
+            if peer_first:
+                run_peer_once()
+            weft_runs.append(run_weft(scene, wanted, threads))
+            if peer == "blender" and not peer_first:
+                run_peer_once()
+        weft_run = weft_runs[0]
         row = measure(scene, "weft", weft_run, threads)
         row.update(scene=name, rest=scene.shot.cloth[0].rest.kind, failure=weft_run["failure"],
                    telemetry=weft_breakdown(weft_run["telemetry"]),
                    telemetry_frames=[t.model_dump() for t in weft_run["telemetry"]])
+        if repeat > 1:
+            repeated_timing(row, [r["frame_seconds"] for r in weft_runs])
+            # weft is deterministic: every repeat must give the first run's positions, bit for bit.
+            row["repeats_identical"] = all(np.array_equal(r["positions"], weft_run["positions"]) for r in weft_runs)
         rows = [row]
         if self_cost and scene.shot.features.self_collision is not False:
             # The same scene with self-collision switched off, run right after: what it costs.
@@ -145,17 +188,18 @@ def run_scene(name: str, frames: int | None, threads: int, peer: str | None,
                 off_row["rest"] = f"self-collision costs {row['self_collision_cost']:.2f}x"
             rows.append(off_row)
         if peer == "blender":
-            from bench.blender_peer import run_peer
-
-            try:
-                peer_run = run_peer(scene, wanted, threads, blender_mass)
-            except RuntimeError as exc:
-                rows.append({"scene": name, "solver": "blender", "failure": str(exc)})
+            if not peer_runs:
+                rows.append({"scene": name, "solver": "blender", "failure": peer_failure or "no run"})
                 return rows
+            peer_run = peer_runs[0]
             peer_row = measure(scene, "blender", peer_run, threads)
             info = peer_run["info"]
             peer_row.update(scene=name, rest=f"{info['rest']}; {info['vertex_mass_kg']:.2g} kg/vertex", failure=None,
                             blender=info)
+            if repeat > 1:
+                repeated_timing(peer_row, [r["frame_seconds"] for r in peer_runs])
+                pairs = zip(peer_row["s_per_frame_runs"], row.get("s_per_frame_runs", []))
+                peer_row["ratio_runs"] = [b / w for b, w in pairs if w]
             if row["s_per_frame_mean"] and peer_row["s_per_frame_mean"]:
                 peer_row["ratio"] = peer_row["s_per_frame_mean"] / row["s_per_frame_mean"]
             rows.append(peer_row)
@@ -166,11 +210,19 @@ def _fmt(value: Any, spec: str, scale: float = 1.0) -> str:
     return "-" if value is None else format(value * scale, spec)
 
 
+def _ratio(row: dict[str, Any]) -> str:
+    """The ratio, and with repeats the range of the per-repeat ratios."""
+    runs = row.get("ratio_runs") or []
+    text = _fmt(row.get("ratio"), ".2f")
+    return f"{text} ({min(runs):.2f}-{max(runs):.2f})" if len(runs) > 1 else text
+
+
 def format_tables(rows: list[dict[str, Any]]) -> list[Any]:
     """The results table (a row per scene and solver) and weft's step breakdown (rich tables)."""
     from rich.table import Table
 
-    main = Table(title="contact benchmark (s/frame: wall, frame 1 setup excluded; ratio = blender / weft)")
+    main = Table(title="contact benchmark (s/frame: wall, frame 1 setup excluded, median of the repeats' means; "
+                       "ratio = blender / weft, (range over the repeats))")
     for column in ("scene", "solver", "verts", "frames", "s/frame", "max s", "ratio", "inside max/fin",
                    "gap min/med mm", "cloth-body max/fin", "cloth-cloth max/fin", "max strain", "max m/s", "NaN",
                    "rest / notes"):
@@ -182,9 +234,11 @@ def format_tables(rows: list[dict[str, Any]]) -> list[Any]:
         note = r.get("rest", "") if r["solver"] == "weft, self off" else "rest: " + r.get("rest", "")
         if r.get("failure"):
             note += f"; stopped: {r['failure'][:60]}"
+        if r.get("repeats_identical") is False:
+            note += "; REPEATS DIFFER"
         main.add_row(
             r["scene"], r["solver"], str(r["vertices"]), str(r["frames"]), _fmt(r["s_per_frame_mean"], ".3f"),
-            _fmt(r["s_per_frame_max"], ".3f"), _fmt(r.get("ratio"), ".2f"), f"{r['inside_max']}/{r['inside_final']}",
+            _fmt(r["s_per_frame_max"], ".3f"), _ratio(r), f"{r['inside_max']}/{r['inside_final']}",
             f"{_fmt(r.get('gap_min_m'), '.1f', 1e3)}/{_fmt(r.get('gap_median_m'), '.1f', 1e3)}",
             f"{r['cloth_body_pairs_max']}/{r['cloth_body_pairs_final']}",
             f"{r['cloth_cloth_pairs_max']}/{r['cloth_cloth_pairs_final']}", _fmt(r["max_strain"], ".3f"),
@@ -221,6 +275,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--blender-mass", choices=["mapped", "default"], default="default",
                         help="Blender vertex mass: its default 0.3 kg (default; mapped masses leave Blender's cloth "
                              "floating under its other defaults) or density x area (mapped)")
+    parser.add_argument("--repeat", type=int, default=1,
+                        help="run each scene this many times (weft and the peer alternating which goes first); "
+                             "s/frame is the median of the runs' means, the ratio's range is shown")
     parser.add_argument("--self-cost", action="store_true",
                         help="also run weft with self-collision off: the cost of self-collision per scene")
     args = parser.parse_args(argv)
@@ -228,6 +285,8 @@ def main(argv: list[str] | None = None) -> int:
     unknown = [n for n in names if n not in DEFAULT_FRAMES]
     if unknown:
         parser.error(f"unknown scene(s) {unknown}; choose from {list(DEFAULT_FRAMES)}")
+    if args.repeat < 1:
+        parser.error("--repeat must be at least 1")
     if args.frames is not None and args.frames < 2:
         parser.error("--frames must be at least 2 (the initial state and one simulated frame)")
     if args.peer == "blender":
@@ -248,12 +307,13 @@ def main(argv: list[str] | None = None) -> int:
     rows: list[dict[str, Any]] = []
     for name in names:
         console.print(f"[dim]{name} ...[/dim]")
-        rows.extend(run_scene(name, args.frames, args.threads, args.peer, args.blender_mass, args.self_cost))
+        rows.extend(run_scene(name, args.frames, args.threads, args.peer, args.blender_mass, args.self_cost,
+                              args.repeat))
     for table in format_tables(rows):
         console.print(table)
     if args.json:
         args.json.parent.mkdir(parents=True, exist_ok=True)
-        report = {"threads": args.threads, "peer": args.peer, "blender_mass": args.blender_mass, "cpus": os.cpu_count(), "machine": platform.platform(),
+        report = {"threads": args.threads, "peer": args.peer, "repeat": args.repeat, "blender_mass": args.blender_mass, "cpus": os.cpu_count(), "machine": platform.platform(),
                   "load_average_before": load_before, "load_average_after": os.getloadavg(), "rows": rows}
         args.json.write_text(json.dumps(report, indent=1, default=float))
         console.print(f"wrote {args.json}")

@@ -117,3 +117,30 @@ def test_self_cost_runs_the_scene_again_with_self_collision_off() -> None:
     assert on["self_collision_cost"] == pytest.approx(on["s_per_frame_mean"] / off["s_per_frame_mean"])
     assert off["telemetry"]["ccd_candidates_per_frame"] < on["telemetry"]["ccd_candidates_per_frame"]
     assert "self-collision costs" in off["rest"]
+
+
+def test_repeats_give_the_median_time_and_identical_positions() -> None:
+    from bench.contact import run_scene
+
+    (row,) = run_scene("sleeve_swing", 3, 1, None, repeat=3)
+    runs = row["s_per_frame_runs"]
+    assert len(runs) == 3 and all(r > 0 for r in runs)
+    assert row["s_per_frame_mean"] == pytest.approx(float(np.median(runs)))
+    assert row["s_per_frame_max"] >= max(runs)
+    assert row["repeats_identical"] is True
+
+
+def test_the_ratio_column_shows_the_range_over_repeats() -> None:
+    from bench.contact import _ratio
+
+    assert _ratio({"ratio": 1.5, "ratio_runs": [1.4, 1.62, 1.5]}) == "1.50 (1.40-1.62)"
+    assert _ratio({"ratio": 1.5}) == "1.50"
+    assert _ratio({}) == "-"
+
+
+def test_repeat_must_be_positive() -> None:
+    from bench.contact import main
+
+    with pytest.raises(SystemExit) as exc:
+        main(["--repeat", "0", "--scenes", "sleeve_swing"])
+    assert exc.value.code == 2
