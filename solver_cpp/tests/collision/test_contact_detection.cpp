@@ -247,5 +247,38 @@ TEST(ContactDetection, ChangedFacesGiveTheIncrementalPassTheFullListsPairs) {
   }
 }
 
+// A body's boxes, tree and planes are not recomputed when it stands where it stood (the same
+// start and end, compared bit for bit), and are whenever it moved, even in the same buffer.
+TEST(ContactDetection, ABodyIsRefittedWhenItMovedAndOnlyThen) {
+  const int n = 6, m = 4;
+  const Faces cloth_faces = testing::grid_faces(n), body_faces = testing::grid_faces(m);
+  Positions x(n * n, 3), body_x(m * m, 3);
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j) x.row(i * n + j) << 0.02 * i, 0.02 * j, 0.0;
+  for (int i = 0; i < m; ++i)
+    for (int j = 0; j < m; ++j) body_x.row(i * m + j) << 0.03 * i, 0.03 * j, -0.001;
+  const std::vector<KinematicBody> bodies = {KinematicBody(body_faces, body_x)};
+  const int face_count = static_cast<int>(cloth_faces.rows());
+  ContactDetection detection(cloth_faces, x, std::vector<char>(face_count, 1), std::vector<char>(face_count, 0),
+                             std::vector<double>(face_count, 0.002), bodies, {1});
+  detection.refit_cloth(x, x);
+  Positions where = body_x;  // one buffer, moved in place
+  const auto near = detection.body_pairs(0, where, where);
+  ASSERT_FALSE(near.empty());
+  EXPECT_EQ(detection.body_pairs(0, where, where), near);  // unchanged: the same pairs
+  where.col(2).array() -= 1.0;                              // a metre below the cloth
+  EXPECT_TRUE(detection.body_pairs(0, where, where).empty());
+  auto sorted = [](std::vector<std::pair<int, int>> pairs) {
+    std::sort(pairs.begin(), pairs.end());
+    return pairs;
+  };
+  EXPECT_EQ(sorted(detection.body_pairs(0, where, body_x)), sorted(near));  // swept back up: the end overlaps
+  where = body_x;
+  EXPECT_EQ(detection.body_pairs(0, where, where), near);
+  const Aabb root = detection.bodies()[0].tree.bounds();
+  EXPECT_DOUBLE_EQ(root.lo.z(), -0.001);
+  EXPECT_DOUBLE_EQ(root.hi.x(), 0.09);
+}
+
 }  // namespace
 }  // namespace weft

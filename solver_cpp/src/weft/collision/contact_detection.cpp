@@ -1,5 +1,7 @@
 #include "weft/collision/contact_detection.h"
 
+#include <cstring>
+
 #include <algorithm>
 #include <cstdint>
 #include <limits>
@@ -150,12 +152,35 @@ void ContactDetection::refit_cloth(const Positions& start, const Positions& end,
   cloth_tree_.refit(cloth_boxes_, threads_);
 }
 
+bool FittedAt::same(const Positions& start, const Positions& end) const {
+  auto equal = [](const Positions& a, const Positions& b) {
+    return a.rows() == b.rows() &&
+           std::memcmp(a.data(), b.data(), sizeof(double) * static_cast<size_t>(a.size())) == 0;
+  };
+  return valid_ && equal(start, start_) && equal(end, end_);
+}
+
+void FittedAt::set(const Positions& start, const Positions& end) {
+  start_ = start;
+  end_ = end;
+  valid_ = true;
+}
+
 const ContactDetection::Body& ContactDetection::refit_body(int body, const Positions& start, const Positions& end) {
   Body& state = bodies_[body];
   swept_body_current_[body] = 0;
+  if (state.boxes_at.same(start, end)) return state;  // boxes and tree as they are
   triangle_boxes(state.faces, start, end, {}, state.boxes, threads_);
   state.tree.refit(state.boxes, threads_);
+  state.boxes_at.set(start, end);
   return state;
+}
+
+void ContactDetection::fit_body_planes(int body, const Positions& start, const Positions& end) {
+  Body& state = bodies_[body];
+  if (state.planes_at.same(start, end)) return;
+  state.planes.compute(state.faces, start, end, threads_);
+  state.planes_at.set(start, end);
 }
 
 const std::vector<std::pair<int, int>>& ContactDetection::body_pairs(int body, const Positions& start,
@@ -343,7 +368,7 @@ void ContactDetection::collect(CollisionStep& step, const ContactFilter& filter,
     const Positions& body_end = swept ? step.body_end[b] : body_start;
     body_candidates_[b].clear();
     body_pairs(static_cast<int>(b), body_start, body_end, body_candidates_[b]);
-    bodies_[b].planes.compute(bodies_[b].faces, body_start, body_end, threads_);
+    fit_body_planes(static_cast<int>(b), body_start, body_end);
     swept_body_current_[b] = swept;
     body_plain_[b] = filter.skips_nothing(static_cast<int>(b));
     candidate_start_[b + 1] += static_cast<std::int64_t>(body_candidates_[b].size());
@@ -436,11 +461,9 @@ void ContactDetection::collect_changed(CollisionStep& step, const ContactFilter&
     body_plain_.assign(bodies_.size(), 1);
     for (size_t b = 0; b < bodies_.size(); ++b) {
       if (!bodies_[b].collide) continue;
-      Body& state = bodies_[b];
       if (!swept_body_current_[b]) {  // current: the body does not move within a step
-        triangle_boxes(state.faces, step.body_start[b], step.body_end[b], {}, state.boxes, threads_);
-        state.tree.refit(state.boxes, threads_);
-        state.planes.compute(state.faces, step.body_start[b], step.body_end[b], threads_);
+        refit_body(static_cast<int>(b), step.body_start[b], step.body_end[b]);
+        fit_body_planes(static_cast<int>(b), step.body_start[b], step.body_end[b]);
         swept_body_current_[b] = 1;
       }
       body_plain_[b] = filter.skips_nothing(static_cast<int>(b));

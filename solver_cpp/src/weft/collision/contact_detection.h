@@ -38,6 +38,21 @@ struct SweptPlanes {
   void compute_face(const Faces& faces, const Positions& start, const Positions& end, int f);
 };
 
+// The configuration (start and end positions) something was last computed from, kept to tell
+// whether a recomputation would give the same: a body standing still, or the same body state
+// asked for twice in a step (the contact constraints and the proximity list both at the step's
+// start), is then not refitted again. Compared bit for bit.
+class FittedAt {
+ public:
+  bool same(const Positions& start, const Positions& end) const;
+  void set(const Positions& start, const Positions& end);
+  void clear() { valid_ = false; }
+
+ private:
+  Positions start_, end_;
+  bool valid_ = false;
+};
+
 class ContactDetection {
  public:
   struct Body {
@@ -47,7 +62,9 @@ class ContactDetection {
     FeatureOwnership own;
     AabbTree tree;
     std::vector<Aabb> boxes;
+    FittedAt boxes_at;   // boxes and tree
     SweptPlanes planes;  // collect(), collect_changed()
+    FittedAt planes_at;
   };
 
   // face_collide / face_self: per cloth face; face_margin: per cloth face, its box growth (the
@@ -68,6 +85,7 @@ class ContactDetection {
   void body_pairs(int body, const Positions& start, const Positions& end, std::vector<std::pair<int, int>>& out);
   // Refit body `body`'s boxes and tree over start..end (the same object: static) and return it:
   // the contact constraints query it vertex by vertex.
+  // Both skip the work when the body's start and end are those of the last time.
   const Body& refit_body(int body, const Positions& start, const Positions& end);
   // Broad phase. swept: over the step from step.x to step.x_end within the CCD minimum
   // separation, into step.pairs; else at step.x within one thickness, into
@@ -152,6 +170,8 @@ class ContactDetection {
   std::vector<Aabb> cloth_boxes_;
   SweptPlanes cloth_planes_;  // collect(), collect_changed()
   std::vector<Body> bodies_;
+  void fit_body_planes(int body, const Positions& start, const Positions& end);  // Body::planes over start..end
+
   std::vector<std::pair<int, int>> scratch_pairs_;
   std::vector<int> changed_faces_, leaf_culled_top_;  // collect_changed()
   std::vector<char> face_changed_;
