@@ -126,7 +126,6 @@ ContactDetection::ContactDetection(const Faces& cloth_faces, const Positions& x,
   cloth_tree_.build(cloth_boxes_);
   if (any_self_ && self_culling_) culling_.rebuild(cloth_tree_, cloth_faces_, face_self_);
   bodies_.resize(bodies.size());
-  swept_body_current_.assign(bodies.size(), 0);
   for (size_t b = 0; b < bodies.size(); ++b) {
     Body& state = bodies_[b];
     state.collide = body_collide[b] != 0;
@@ -168,7 +167,6 @@ void FittedAt::set(const Positions& start, const Positions& end) {
 
 const ContactDetection::Body& ContactDetection::refit_body(int body, const Positions& start, const Positions& end) {
   Body& state = bodies_[body];
-  swept_body_current_[body] = 0;
   if (state.boxes_at.same(start, end)) return state;  // boxes and tree as they are
   triangle_boxes(state.faces, start, end, {}, state.boxes, threads_);
   state.tree.refit(state.boxes, threads_);
@@ -330,7 +328,6 @@ void ContactDetection::collect(CollisionStep& step, const ContactFilter& filter,
   const double fraction = swept ? kCcdSeparationFraction : 1.0;
   refit_cloth(x, end, fraction);
   cloth_planes_.compute(cloth_faces_, x, end, threads_);
-  std::fill(swept_body_current_.begin(), swept_body_current_.end(), 0);
   std::vector<FeaturePair>& pairs = swept ? step.pairs : step.proximity_pairs;
   pairs.clear();
   if (any_self_) {
@@ -369,7 +366,6 @@ void ContactDetection::collect(CollisionStep& step, const ContactFilter& filter,
     body_candidates_[b].clear();
     body_pairs(static_cast<int>(b), body_start, body_end, body_candidates_[b]);
     fit_body_planes(static_cast<int>(b), body_start, body_end);
-    swept_body_current_[b] = swept;
     body_plain_[b] = filter.skips_nothing(static_cast<int>(b));
     candidate_start_[b + 1] += static_cast<std::int64_t>(body_candidates_[b].size());
   }
@@ -461,11 +457,9 @@ void ContactDetection::collect_changed(CollisionStep& step, const ContactFilter&
     body_plain_.assign(bodies_.size(), 1);
     for (size_t b = 0; b < bodies_.size(); ++b) {
       if (!bodies_[b].collide) continue;
-      if (!swept_body_current_[b]) {  // current: the body does not move within a step
-        refit_body(static_cast<int>(b), step.body_start[b], step.body_end[b]);
-        fit_body_planes(static_cast<int>(b), step.body_start[b], step.body_end[b]);
-        swept_body_current_[b] = 1;
-      }
+      // Current since the step's swept collect (the body does not move within a step): kept.
+      refit_body(static_cast<int>(b), step.body_start[b], step.body_end[b]);
+      fit_body_planes(static_cast<int>(b), step.body_start[b], step.body_end[b]);
       body_plain_[b] = filter.skips_nothing(static_cast<int>(b));
     }
     // One parallel pass over (body, changed face), body after body: the per-body passes' lists

@@ -179,7 +179,6 @@ class ContactDetection {
   // fraction, over step.x .. step.x_end), updated by collect_changed() since: a later
   // collect_changed() of the same step redoes only the changed faces'. Any other refit clears it.
   bool swept_cloth_current_ = false;
-  std::vector<char> swept_body_current_;  // per body, the same for its boxes, tree and planes
   std::vector<std::vector<FeaturePair>> chunk_pairs_;  // collect(): per chunk of triangle pairs
   std::vector<std::vector<std::pair<int, int>>> body_candidates_;  // collect(): per body, (cloth, body face)
   std::vector<std::int64_t> candidate_start_;  // collect(): body b's candidates start at this index of all
