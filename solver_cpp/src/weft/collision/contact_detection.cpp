@@ -1,9 +1,8 @@
 #include "weft/collision/contact_detection.h"
 
-#include <cstring>
-
 #include <algorithm>
 #include <cstdint>
+#include <cstring>
 #include <limits>
 
 #include "weft/common/ordered_append.h"

@@ -46,7 +46,6 @@ class FittedAt {
  public:
   bool same(const Positions& start, const Positions& end) const;
   void set(const Positions& start, const Positions& end);
-  void clear() { valid_ = false; }
 
  private:
   Positions start_, end_;
@@ -84,8 +83,8 @@ class ContactDetection {
   // The same, appended to out.
   void body_pairs(int body, const Positions& start, const Positions& end, std::vector<std::pair<int, int>>& out);
   // Refit body `body`'s boxes and tree over start..end (the same object: static) and return it:
-  // the contact constraints query it vertex by vertex.
-  // Both skip the work when the body's start and end are those of the last time.
+  // the contact constraints query it vertex by vertex. Nothing is recomputed when start and end
+  // are those of the last refit (Body::boxes_at).
   const Body& refit_body(int body, const Positions& start, const Positions& end);
   // Broad phase. swept: over the step from step.x to step.x_end within the CCD minimum
   // separation, into step.pairs; else at step.x within one thickness, into
@@ -158,6 +157,9 @@ class ContactDetection {
   int threads() const { return threads_; }
 
  private:
+  // Body::planes over start..end, unless those of the last call (Body::planes_at).
+  void fit_body_planes(int body, const Positions& start, const Positions& end);
+
   Faces cloth_faces_;
   std::vector<char> face_collide_, face_self_;
   std::vector<double> face_margin_, scaled_margin_;
@@ -170,8 +172,6 @@ class ContactDetection {
   std::vector<Aabb> cloth_boxes_;
   SweptPlanes cloth_planes_;  // collect(), collect_changed()
   std::vector<Body> bodies_;
-  void fit_body_planes(int body, const Positions& start, const Positions& end);  // Body::planes over start..end
-
   std::vector<std::pair<int, int>> scratch_pairs_;
   std::vector<int> changed_faces_, leaf_culled_top_;  // collect_changed()
   std::vector<char> face_changed_;
