@@ -250,8 +250,8 @@ def articulated_dress(directory: Path, frames: int = 24, around: int = 64, along
     return doc
 
 
-def articulated_dress_merged(directory: Path, **kwargs: Any) -> dict[str, Any]:
-    return articulated_dress(directory, merged=True, **kwargs)
+def articulated_dress_merged(directory: Path, frames: int = 24, **kwargs: Any) -> dict[str, Any]:
+    return articulated_dress(directory, frames=frames, merged=True, **kwargs)
 
 
 SCENES: dict[str, Callable[..., dict[str, Any]]] = {

@@ -143,7 +143,7 @@ def feature_summary(shot: Shot) -> dict[str, str]:
     if not enabled:
         gia = "off"
     elif features.gia is None:
-        gia = "auto: on when bodies intersect each other or the cloth starts in intersection"
+        gia = "auto: on (runs only while the cloth may be in intersection); body/body pinches when bodies meet"
     else:
         gia = "on" if features.gia else "off"
     wind = shot.environment.wind
@@ -425,13 +425,15 @@ def collision_switches(scene: Scene) -> dict[str, Any]:
     - CCD (``features.ccd``): on whenever any collision is on.
     - GIA (``features.gia``): recovery of cloth inside or through closed bodies, body/body
       pinch states (CCD off for cloth caught where two collidable bodies intersect each other)
-      and cloth/cloth untangling (with self-collision). None means on when two collidable bodies,
-      not parts of one character, intersect each other at some animation frame (decided here,
-      ``bodies_intersect_each_other``: exact test per frame, bounding boxes first) or, failing
-      that, when the cloth starts in intersection: some cloth vertex or triangle through a
-      closed collidable body, or the self-colliding cloth self-intersecting (decided by the
-      solver at setup, exact tests: ``gia`` stays -1 here). Off when there is neither a
-      collidable body nor self-collision.
+      and cloth/cloth untangling (with self-collision). None means on whenever there is a
+      collidable body or self-collision (``gia`` -1): the recovery runs only in steps that may
+      start in intersection (the first, and after a frame or step that left some), so a clean
+      shot pays one analysis and moves bit for bit as with GIA off, and cloth that a pinch or an
+      exhausted fail-safe leaves in intersection can recover. Body/body pinch tracking (every
+      step) is added (``gia`` 1) when two collidable bodies, not parts of one character,
+      intersect each other at some animation frame (``bodies_intersect_each_other``: exact test
+      per frame, bounding boxes first). Off when there is neither a collidable body nor
+      self-collision.
     A switch set to false at the scene level turns the feature off for every piece.
     """
     shot = scene.shot

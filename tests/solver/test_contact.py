@@ -63,7 +63,7 @@ def test_overlapping_parts_of_one_character_are_one_group_and_never_pinch(tmp_pa
     switches = collision_switches(scene)
     groups = switches["body_group"]
     assert len(set(groups)) == 1 and groups[0] >= 0  # all 14 parts overlap into one character
-    assert switches["gia"] == -1  # their overlap does not switch GIA on
+    assert switches["gia"] == -1  # their overlap adds no body/body pinch tracking
     parts = [(b.frames, b.faces) for b in scene.bodies]
     sim = new_simulation(scene, 2)
     for index, sim, t in simulate(scene, sim):

@@ -30,7 +30,7 @@ def test_sheet_pushed_through_a_bone_recovers_to_the_majority_side(n, half_width
     bar_f = np.asarray(doc["bodies"][0]["mesh"]["faces"])
     start = np.asarray(doc["cloth"][0]["mesh"]["vertices"])
     assert (convex_depth(start, bar_v, bar_f) < 0).sum() == inside  # the pushed patch starts inside
-    assert collision_switches(make_scene(doc))["gia"] == -1  # auto: on, the start is in intersection
+    assert collision_switches(make_scene(doc))["gia"] == -1  # auto: on, without body/body pinch tracking
     counts, coloured, pushed = [], [], 0
     for index, sim, t in simulate(doc):
         counts.append(t.intersections)
@@ -86,6 +86,40 @@ def test_without_gia_the_pushed_patch_stays_caught():
     for index, sim, t in simulate(doc):
         assert t.gia_coloured_vertices == 0
     assert t.intersections > 0
+
+
+def dragged_through_shot(gia: bool | None, frames: int = 10) -> dict:
+    """A clean start (the bone shot without its patch) whose middle row over |x| <= 6 cm is
+    pinned and dragged 7 mm into the bone in frame 1 (pinned vertices have infinite mass: CCD
+    cannot stop them), then released at frame 2: mid-shot intersection, as a pin path, a
+    pinch or an exhausted fail-safe can leave it."""
+    doc = bone_shot(frames=frames, patch=False, gia=gia)
+    x0 = np.asarray(doc["cloth"][0]["mesh"]["vertices"])
+    row = np.flatnonzero((np.abs(x0[:, 2]) <= 1e-9) & (np.abs(x0[:, 0]) <= 0.06 + 1e-9))
+    path = np.repeat(x0[row][None], frames, axis=0)
+    path[1:, :, 1] = 0.003
+    doc["cloth"][0]["pins"].append({"vertices": row.tolist(), "animation": path.tolist(), "release": 2 / doc["fps"]})
+    return doc
+
+
+def test_cloth_left_in_intersection_mid_shot_recovers_with_the_default_switches():
+    """GIA's automatic switch is on for a clean start too (it runs only while the cloth may be
+    in intersection), so a patch dragged into the bone after the start comes back out once
+    released; with GIA off CCD keeps it caught."""
+    bar = bone_shot()["bodies"][0]["mesh"]
+    bar_v, bar_f = np.asarray(bar["vertices"]), np.asarray(bar["faces"])
+    for gia in (None, False):
+        doc = dragged_through_shot(gia)
+        assert collision_switches(make_scene(doc))["gia"] == (-1 if gia is None else 0)
+        counts, inside = [], []
+        for index, sim, t in simulate(doc):
+            counts.append(t.intersections)
+            inside.append(int((convex_depth(np.asarray(sim.positions), bar_v, bar_f) < 0).sum()))
+        assert counts[0] > 0 and inside[0] == 9, (gia, counts, inside)  # the pin dragged the row in
+        if gia is None:
+            assert all(c == 0 for c in counts[3:]) and all(i == 0 for i in inside[3:]), (counts, inside)
+        else:
+            assert min(counts) > 0 and min(inside) == 9, (counts, inside)
 
 
 def test_clean_start_with_gia_forced_on_stays_free_of_intersections_like_gia_off():

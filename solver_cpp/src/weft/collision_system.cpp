@@ -99,22 +99,19 @@ CollisionSystem::CollisionSystem(const Faces& cloth_faces, const Positions& x, c
   const int vertex_count = static_cast<int>(x.rows());
   step_.body_start.resize(bodies.size());
   step_.body_end.resize(bodies.size());
-  // GIA switch: -1 resolves to on when the cloth starts in intersection with a closed body:
-  // some cloth vertex inside it, or some cloth triangle through it (a patch pushed wholly
-  // through a thin body has no vertex inside), or when the self-colliding cloth starts
-  // self-intersecting (exact count).
-  gia_ = settings_.gia > 0;
-  if (settings_.gia < 0) {
-    gia_ = GiaBodyDriver::starts_in_intersection(x, detection_, bodies, threads_);
-    if (!gia_ && detection_.any_self())
-      gia_ = count_self_intersections(x, detection_.cloth_faces(), detection_.face_self()) > 0;
-  }
+  // GIA switch: -1 (auto) is on wherever collisions are: GIA is the net that recovers cloth a
+  // pinch or an exhausted fail-safe left in intersection, and it runs only in steps that may
+  // start in intersection (gia_due_: the first, and after a frame or step that left some), so a
+  // clean shot pays one analysis and moves bit for bit as without it. Body/body pinch tracking
+  // (every step) only when asked for or when two bodies meet (settings.gia 1, decided by the
+  // caller from the animation).
+  gia_ = settings_.gia != 0;
   if (gia_ && detection_.any_self()) untangle_ = ClothUntangling(detection_.cloth_faces(), detection_.face_self(), vertex_count);
   if (gia_) gia_bodies_ = std::make_unique<GiaBodyDriver>(detection_, vertex_count);
   std::vector<int> pinch_bodies;
   for (size_t b = 0; b < detection_.bodies().size(); ++b)
     if (detection_.bodies()[b].collide) pinch_bodies.push_back(static_cast<int>(b));
-  if (gia_ && settings_.body_pinch && pinch_bodies.size() >= 2) {
+  if (settings_.gia > 0 && settings_.body_pinch && pinch_bodies.size() >= 2) {
     pinch_ = std::make_unique<PinchDriver>(pinch_bodies, static_cast<int>(bodies.size()), vertex_count, threads_,
                                            settings_.body_group);
     if (pinch_->tracker().pairs().empty()) pinch_.reset();  // one articulated character: no pair to track

@@ -50,7 +50,6 @@ void body_step(CollisionStep& step, const std::vector<KinematicBody>& bodies) {
 TEST(GiaBodyDriver, ColoursAVertexInsideAClosedBodyAndPushesItOut) {
   DippedCloth c;
   const ContactDetection detection = c.detection();
-  EXPECT_TRUE(GiaBodyDriver::starts_in_intersection(c.x, detection, c.bodies, 1));
   GiaBodyDriver driver(detection, 3);
   CollisionStep step;
   const double h = 0.01;
@@ -74,10 +73,18 @@ TEST(GiaBodyDriver, ColoursAVertexInsideAClosedBodyAndPushesItOut) {
   EXPECT_FALSE(driver.coloured(0, 0));
 }
 
-TEST(GiaBodyDriver, CleanClothIsNotInIntersection) {
+TEST(GiaBodyDriver, ColoursNothingOnCleanCloth) {
   DippedCloth c;
   c.x.col(2).array() += 0.02;
-  EXPECT_FALSE(GiaBodyDriver::starts_in_intersection(c.x, c.detection(), c.bodies, 1));
+  const ContactDetection detection = c.detection();
+  GiaBodyDriver driver(detection, 3);
+  CollisionStep step;
+  step.begin(c.x, c.v, 0.01);
+  body_step(step, c.bodies);
+  CollisionTelemetry frame;
+  EXPECT_FALSE(driver.colour(step, 1, frame));
+  EXPECT_FALSE(driver.coloured(0, 0));
+  EXPECT_EQ(frame.gia_coloured_vertices, 0);
 }
 
 // The dipped cloth with a second box; the pinch state after one step's update.

@@ -29,11 +29,11 @@ struct CollisionSettings {
   // by the sign of their impulse. Off only to compare (tests, benchmarks).
   bool contact_constraints = true;
   // Global intersection analysis (docs/intersection-analysis.md): against closed bodies and,
-  // with self-collision, cloth/cloth untangling (cloth_untangling.h). 0 off, 1 on, -1 on when
-  // some cloth vertex starts inside a closed collidable body or the self-colliding cloth
-  // starts self-intersecting.
+  // with self-collision, cloth/cloth untangling (cloth_untangling.h). 0 off, 1 on with body/body
+  // pinch tracking, -1 (auto) on without it: the recovery runs only in steps that may start in
+  // intersection, so a clean shot pays one analysis.
   int gia = 0;
-  // Body/body pinch states (body_pinch.h) when GIA is on and two or more bodies collide: CCD off
+  // Body/body pinch states (body_pinch.h) when gia is 1 and two or more bodies collide: CCD off
   // for cloth where two bodies intersect each other. Off only to compare (tests, diagnosis).
   bool body_pinch = true;
   // Normal-cone culling of self-collision pairs inside patches that cannot touch themselves

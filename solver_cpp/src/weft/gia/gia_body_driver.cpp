@@ -6,7 +6,6 @@
 
 #include "weft/common/timer.h"
 #include "weft/common/union_find.h"
-#include "weft/geometry/intersection_count.h"
 #include "weft/gia/intersection_analysis.h"
 #include "weft/gia/pinch_driver.h"
 
@@ -21,20 +20,6 @@ bool closed_body(const ContactDetection::Body& body) {
   return body.collide && build_gia_topology(body.vertex_count, body.faces).closed;
 }
 }  // namespace
-
-bool GiaBodyDriver::starts_in_intersection(const Positions& x, const ContactDetection& detection,
-                                           const std::vector<KinematicBody>& bodies, int threads) {
-  for (size_t b = 0; b < bodies.size(); ++b) {
-    const ContactDetection::Body& state = detection.bodies()[b];
-    if (!closed_body(state)) continue;
-    const auto inside = points_inside_closed_mesh(x, bodies[b].frame_start(), state.faces, threads);
-    if (std::any_of(inside.begin(), inside.end(), [](std::int8_t c) { return c != 0; }) ||
-        count_intersections(x, detection.cloth_faces(), bodies[b].frame_start(), state.faces,
-                            detection.face_collide()) > 0)
-      return true;
-  }
-  return false;
-}
 
 GiaBodyDriver::GiaBodyDriver(const ContactDetection& detection, int vertex_count)
     : detection_(detection), vertex_count_(vertex_count), bodies_(detection.bodies().size()) {

@@ -19,11 +19,6 @@ class GiaBodyDriver {
  public:
   GiaBodyDriver(const ContactDetection& detection, int vertex_count);
 
-  // Whether some cloth vertex starts inside a closed collidable body, or some collidable cloth
-  // triangle through one (the automatic GIA switch).
-  static bool starts_in_intersection(const Positions& x, const ContactDetection& detection,
-                                     const std::vector<KinematicBody>& bodies, int threads);
-
   // Colours against every closed collidable body at the step's start; returns whether the cloth
   // is in intersection with one (paths or vertices inside).
   bool colour(const CollisionStep& step, int threads, CollisionTelemetry& frame);
