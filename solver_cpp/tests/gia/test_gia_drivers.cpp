@@ -87,6 +87,25 @@ TEST(GiaBodyDriver, ColoursNothingOnCleanCloth) {
   EXPECT_EQ(frame.gia_coloured_vertices, 0);
 }
 
+TEST(GiaBodyDriver, ABodyAwayFromTheClothIsLeftClean) {
+  // The dipped cloth against its box and a second box 10 m away: the first is coloured as when
+  // alone, the second is skipped (its box misses the cloth's) and answers as clean.
+  DippedCloth c;
+  c.bodies.push_back(box(Vec3(10, 10, 10), Vec3(11, 11, 11)));
+  const ContactDetection detection(c.faces, c.x, {1}, {0}, {0.002}, c.bodies, {1, 1});
+  GiaBodyDriver driver(detection, 3);
+  CollisionStep step;
+  step.begin(c.x, c.v, 0.01);
+  body_step(step, c.bodies);
+  CollisionTelemetry frame;
+  EXPECT_TRUE(driver.colour(step, 1, frame));
+  EXPECT_TRUE(driver.coloured(0, 0));
+  EXPECT_TRUE(driver.cloth_face_contour(0, 0));
+  EXPECT_FALSE(driver.clean(0));
+  EXPECT_TRUE(driver.clean(1));
+  EXPECT_EQ(frame.gia_coloured_vertices, 1);
+}
+
 // The dipped cloth with a second box; the pinch state after one step's update.
 struct TwoBoxes {
   DippedCloth c;

@@ -15,15 +15,16 @@ namespace {
 // A contour vertex inside a body gets an outward normal velocity (relative to the body) of at
 // least this fraction of (depth + thickness) per step.
 constexpr double kRecoveryRate = 1.0;
-
-bool closed_body(const ContactDetection::Body& body) {
-  return body.collide && build_gia_topology(body.vertex_count, body.faces).closed;
-}
 }  // namespace
 
 GiaBodyDriver::GiaBodyDriver(const ContactDetection& detection, int vertex_count)
     : detection_(detection), vertex_count_(vertex_count), bodies_(detection.bodies().size()) {
-  for (size_t b = 0; b < bodies_.size(); ++b) bodies_[b].closed = closed_body(detection.bodies()[b]);
+  for (size_t b = 0; b < bodies_.size(); ++b) {
+    const ContactDetection::Body& body = detection.bodies()[b];
+    if (!body.collide) continue;
+    bodies_[b].topology = build_gia_topology(body.vertex_count, body.faces);
+    bodies_[b].closed = bodies_[b].topology.closed;
+  }
   const Faces& cloth_faces = detection.cloth_faces();
   const std::vector<char>& face_collide = detection.face_collide();
   const int face_count = static_cast<int>(cloth_faces.rows());
@@ -31,6 +32,7 @@ GiaBodyDriver::GiaBodyDriver(const ContactDetection& detection, int vertex_count
     if (face_collide[f]) collide_face_ids_.push_back(f);
   collide_faces_.resize(static_cast<Eigen::Index>(collide_face_ids_.size()), 3);
   for (size_t k = 0; k < collide_face_ids_.size(); ++k) collide_faces_.row(k) = cloth_faces.row(collide_face_ids_[k]);
+  cloth_topology_ = build_gia_topology(vertex_count_, collide_faces_);
   cloth_neighbours_.assign(vertex_count_, {});
   vertex_collide_.assign(vertex_count_, 0);
   for (int f = 0; f < face_count; ++f)
@@ -56,15 +58,25 @@ bool GiaBodyDriver::colour(const CollisionStep& step, int threads, CollisionTele
   GiaOptions options;
   options.threads = threads;
   const Faces& cloth_faces = detection_.cloth_faces();
+  // The cloth's tree once for every body; a body whose box misses every cloth vertex and face
+  // has nothing in intersection with the cloth (no vertex inside, no triangle through).
+  const Positions& x = *step.x;
+  const AabbTree cloth_tree = gia_triangle_tree(x, collide_faces_);
+  Aabb cloth_box;
+  for (Eigen::Index i = 0; i < x.rows(); ++i) cloth_box.expand(row3(x, static_cast<int>(i)));
   for (size_t b = 0; b < bodies_.size(); ++b) {
     Body& state = bodies_[b];
     state.clear();
     if (!state.closed) continue;
     const Faces& faces = detection_.bodies()[b].faces;
+    const Positions& body_x = step.body_start[b];
+    const AabbTree body_tree = gia_triangle_tree(body_x, faces);
+    if (body_tree.empty() || !body_tree.bounds().overlaps(cloth_box)) continue;
     // Cloth side: the exact inside test (ray parity). Body side: the parity colouring of the
     // body over all separating paths, so a body segment that passes wholly through the cloth
     // (a patch pushed through a thin bone) is marked even though no cloth vertex is inside.
-    const GiaResult gia = analyse_intersections(*step.x, collide_faces_, step.body_start[b], faces, options);
+    const GiaResult gia = analyse_intersections(GiaMesh{x, collide_faces_, cloth_topology_, cloth_tree},
+                                                GiaMesh{body_x, faces, state.topology, body_tree}, options);
     paths += static_cast<int>(gia.paths.size());
     const GiaMeshColouring& cloth = gia.mesh[0];
     const GiaMeshColouring& body = gia.mesh[1];

@@ -10,6 +10,7 @@
 #include "weft/bodies/bodies.h"
 #include "weft/collision/collision_step.h"
 #include "weft/collision/contact_detection.h"
+#include "weft/gia/gia_topology.h"
 
 namespace weft {
 
@@ -44,6 +45,7 @@ class GiaBodyDriver {
 
  private:
   struct Body {
+    GiaTopology topology;            // of the body's mesh (fixed), built once
     bool closed = false;             // collidable and watertight: analysed
     std::vector<char> inside;        // per cloth vertex: inside the body (coloured)
     // per body face: 3 all vertices in the body's coloured region (in intersection with the
@@ -59,6 +61,7 @@ class GiaBodyDriver {
   const ContactDetection& detection_;
   int vertex_count_;
   std::vector<Body> bodies_;
+  GiaTopology cloth_topology_;  // of collide_faces_, built once
   std::vector<std::vector<int>> cloth_neighbours_;  // contour test
   std::vector<char> vertex_collide_;                // on some body-colliding face
   Faces collide_faces_;                             // the cloth faces that collide with bodies

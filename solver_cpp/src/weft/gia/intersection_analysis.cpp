@@ -27,14 +27,6 @@ void check_positions(const Positions& x, const char* name) {
 // ---------------------------------------------------------------------------------------------
 // Triangle boxes in an AABB tree (aabb_tree.h).
 
-AabbTree build_tree(const Positions& x, const Faces& f) {
-  std::vector<Aabb> boxes;
-  triangle_boxes(f, x, x, {}, boxes);
-  AabbTree tree;
-  tree.build(boxes);
-  return tree;
-}
-
 // Triangle pairs whose boxes overlap (closed boxes: touching counts, so exact contact is never
 // missed). Self mode (a == b) lists each unordered pair once, (lower, higher).
 std::vector<std::pair<int, int>> overlapping_pairs(const AabbTree& a, const AabbTree& b, bool self) {
@@ -385,14 +377,14 @@ std::vector<std::int8_t> inside_by_parity(const Positions& points, std::int64_t 
   return inside;
 }
 
-// Shared driver: mesh 0 against mesh 1 (self: mesh 1 is mesh 0).
-GiaResult analyse(const std::array<MeshRef, 2>& mesh, bool self, const GiaOptions& options) {
+// Shared driver: mesh 0 against mesh 1 (self: mesh 1 is mesh 0, tree1 unused), with AABB trees
+// over their triangles.
+GiaResult analyse(const std::array<MeshRef, 2>& mesh, const AabbTree& tree0, const AabbTree& tree1, bool self,
+                  const GiaOptions& options) {
   const Timer timer;
   const int threads = options.threads > 0 ? options.threads : omp_get_max_threads();
   GiaResult r;
   r.self = self;
-  const AabbTree tree0 = build_tree(*mesh[0].x, *mesh[0].f);
-  const AabbTree tree1 = self ? AabbTree() : build_tree(*mesh[1].x, *mesh[1].f);
   const std::vector<std::pair<int, int>> pairs = overlapping_pairs(tree0, tree1, self);
   r.candidate_pairs = static_cast<long long>(pairs.size());
 
@@ -498,21 +490,38 @@ GiaResult analyse(const std::array<MeshRef, 2>& mesh, bool self, const GiaOption
 
 }  // namespace
 
+AabbTree gia_triangle_tree(const Positions& x, const Faces& f) {
+  std::vector<Aabb> boxes;
+  triangle_boxes(f, x, x, {}, boxes);
+  AabbTree tree;
+  tree.build(boxes);
+  return tree;
+}
+
 GiaResult analyse_intersections(const Positions& xa, const Faces& fa, const Positions& xb, const Faces& fb,
                                 const GiaOptions& options) {
   check_positions(xa, "mesh A");
   check_positions(xb, "mesh B");
   const GiaTopology ta = build_gia_topology(static_cast<int>(xa.rows()), fa);
   const GiaTopology tb = build_gia_topology(static_cast<int>(xb.rows()), fb);
-  return analyse({MeshRef{&xa, &fa, &ta, 0}, MeshRef{&xb, &fb, &tb, static_cast<std::int64_t>(xa.rows())}}, false,
-                 options);
+  const AabbTree tree_a = gia_triangle_tree(xa, fa), tree_b = gia_triangle_tree(xb, fb);
+  return analyse_intersections(GiaMesh{xa, fa, ta, tree_a}, GiaMesh{xb, fb, tb, tree_b}, options);
+}
+
+GiaResult analyse_intersections(const GiaMesh& a, const GiaMesh& b, const GiaOptions& options) {
+  check_positions(a.x, "mesh A");
+  check_positions(b.x, "mesh B");
+  const MeshRef ma{&a.x, &a.f, &a.topology, 0};
+  const MeshRef mb{&b.x, &b.f, &b.topology, static_cast<std::int64_t>(a.x.rows())};
+  return analyse({ma, mb}, a.tree, b.tree, false, options);
 }
 
 GiaResult analyse_self_intersections(const Positions& x, const Faces& f, const GiaOptions& options) {
   check_positions(x, "mesh");
   const GiaTopology t = build_gia_topology(static_cast<int>(x.rows()), f);
   const MeshRef m{&x, &f, &t, 0};
-  return analyse({m, m}, true, options);
+  const AabbTree tree = gia_triangle_tree(x, f);
+  return analyse({m, m}, tree, tree, true, options);
 }
 
 std::vector<std::int8_t> points_inside_closed_mesh(const Positions& points, const Positions& x, const Faces& f,
@@ -521,7 +530,7 @@ std::vector<std::int8_t> points_inside_closed_mesh(const Positions& points, cons
   check_positions(x, "mesh");
   const GiaTopology topo = build_gia_topology(static_cast<int>(x.rows()), f);
   if (!topo.closed) throw MeshError("points_inside_closed_mesh: the mesh is not closed (watertight, manifold)");
-  const AabbTree tree = build_tree(x, f);
+  const AabbTree tree = gia_triangle_tree(x, f);
   const std::int64_t offset = points.rows();
   const MeshRef mesh{&x, &f, &topo, offset};
   return inside_by_parity(points, 0, mesh, tree, offset + x.rows(), threads);

@@ -17,6 +17,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "weft/geometry/aabb_tree.h"
 #include "weft/gia/gia_result.h"
 
 namespace weft {
@@ -24,6 +25,19 @@ namespace weft {
 // Mesh A against mesh B.
 GiaResult analyse_intersections(const Positions& xa, const Faces& fa, const Positions& xb, const Faces& fb,
                                 const GiaOptions& options = {});
+
+// A mesh with what the analysis builds for it: its topology (build_gia_topology) and an AABB
+// tree over its triangles at these positions (gia_triangle_tree). A caller that analyses one
+// mesh against several others (the cloth against every part of a character) builds them once.
+struct GiaMesh {
+  const Positions& x;
+  const Faces& f;
+  const GiaTopology& topology;
+  const AabbTree& tree;
+};
+AabbTree gia_triangle_tree(const Positions& x, const Faces& f);
+// The same as the overload above, with the meshes' structures given.
+GiaResult analyse_intersections(const GiaMesh& a, const GiaMesh& b, const GiaOptions& options = {});
 
 // One mesh against itself (triangles skip edges that share a vertex with them).
 GiaResult analyse_self_intersections(const Positions& x, const Faces& f, const GiaOptions& options = {});
