@@ -170,7 +170,7 @@ void CollisionSystem::respond(const Positions& x, Positions& v, double h, const 
   if (gia_ && gia_due_) {
     tangled = gia_bodies_->colour(step_, threads_, frame_);
     gia_bodies_->recover(step_, props_, pinch_.get(), frame_);
-    if (detection_.any_self()) {
+    if (detection_.any_self() && self_due_) {
       // Cloth/cloth GIA: analyse, then pull crossing edges back through.
       const Timer timer;
       untangle_.analyse(x, threads_);
@@ -179,6 +179,8 @@ void CollisionSystem::respond(const Positions& x, Positions& v, double h, const 
       if (untangle_.pull(x, v, h, props_.inverse_mass, props_.thickness) > 0) step_.x_end = x + h * v;
       frame_.gia_seconds += timer.seconds();
       tangled = tangled || untangle_.any();
+    } else {
+      untangle_.clear();
     }
   } else if (gia_) {
     gia_bodies_->clear();
@@ -192,6 +194,7 @@ void CollisionSystem::respond(const Positions& x, Positions& v, double h, const 
     frame_.response_seconds += timer.seconds();
   }
   step_.pairs.clear();
+  bool cloth_pairs_unresolved = false;
   if (settings_.ccd) {
     int& iteration = step_.ccd_iteration;
     for (iteration = 0; iteration < settings_.ccd_iterations; ++iteration) {
@@ -212,6 +215,8 @@ void CollisionSystem::respond(const Positions& x, Positions& v, double h, const 
                               zone_pass_limit_ > 0 ? std::min(zone_pass_limit_, settings_.zone_iterations)
                                                    : settings_.zone_iterations,
                               [this](std::vector<int>& found) { redetect(found); }, frame_);
+      cloth_pairs_unresolved =
+          std::any_of(hits.begin(), hits.end(), [this](int k) { return step_.pairs[k].body < 0; });
     }
   }
   auto skips_ccd = [](const std::vector<FeaturePair>& list) {
@@ -220,6 +225,9 @@ void CollisionSystem::respond(const Positions& x, Positions& v, double h, const 
   const bool ccd_skipped = !settings_.ccd || skips_ccd(step_.proximity_pairs) || skips_ccd(step_.pairs);
   contacts_aside_ = tangled || ccd_skipped || frame_.unresolved > unresolved_before;
   gia_due_ = contacts_aside_ || (pinch_ && pinch_->active_pairs() > 0);
+  // Cloth/cloth intersection can only have been created where CCD did not vouch for a
+  // cloth/cloth pair: none of them left unresolved, no untangling under way, CCD on.
+  self_due_ = untangle_.any() || cloth_pairs_unresolved || !settings_.ccd;
   step_.end();
 }
 
@@ -227,10 +235,12 @@ int CollisionSystem::count_intersections(const Positions& x, const std::vector<K
   int total = 0;
   const Faces& faces = detection_.cloth_faces();
   // Self-candidates first: they refit the cloth tree without margin, which the body pairs use.
-  if (detection_.any_self())
-    total += count_self_intersections_among(x, faces, detection_.self_intersection_candidates(x),
-                                            detection_.face_self(), threads_);
-  else
+  if (detection_.any_self()) {
+    const int self = count_self_intersections_among(x, faces, detection_.self_intersection_candidates(x),
+                                                    detection_.face_self(), threads_);
+    if (self > 0) self_due_ = true;
+    total += self;
+  } else
     detection_.refit_cloth(x, x, 0.0);
   for (size_t b = 0; b < detection_.bodies().size(); ++b) {
     if (!detection_.bodies()[b].collide) continue;

@@ -96,6 +96,10 @@ class CollisionSystem {
   // step that starts intersection-free and ends with every pair resolved by CCD cannot create
   // an intersection, so the next analysis would find nothing.
   bool gia_due_ = true;
+  // Of a due analysis, the cloth/cloth part (the costlier one on a garment): only after a step
+  // whose untangling found something or that left cloth/cloth pairs unresolved (or ran without
+  // CCD), and after an exact count that found cloth/cloth intersections; at the first step.
+  bool self_due_ = true;
   std::unique_ptr<GiaBodyDriver> gia_bodies_;  // with GIA on
   std::unique_ptr<PinchDriver> pinch_;         // with GIA on and two or more collidable bodies
   ClothUntangling untangle_;                   // cloth/cloth GIA (with GIA on and self-collision)
