@@ -73,16 +73,21 @@ TEST(GiaBodyDriver, ColoursAVertexInsideAClosedBodyAndPushesItOut) {
   EXPECT_FALSE(driver.coloured(0, 0));
 }
 
+// One colouring of the cloth at its positions (a 10 ms step).
+bool colour_once(GiaBodyDriver& driver, DippedCloth& c, CollisionTelemetry& frame) {
+  CollisionStep step;
+  step.begin(c.x, c.v, 0.01);
+  body_step(step, c.bodies);
+  return driver.colour(step, 1, frame);
+}
+
 TEST(GiaBodyDriver, ColoursNothingOnCleanCloth) {
   DippedCloth c;
   c.x.col(2).array() += 0.02;
   const ContactDetection detection = c.detection();
   GiaBodyDriver driver(detection, 3);
-  CollisionStep step;
-  step.begin(c.x, c.v, 0.01);
-  body_step(step, c.bodies);
   CollisionTelemetry frame;
-  EXPECT_FALSE(driver.colour(step, 1, frame));
+  EXPECT_FALSE(colour_once(driver, c, frame));
   EXPECT_FALSE(driver.coloured(0, 0));
   EXPECT_EQ(frame.gia_coloured_vertices, 0);
 }
@@ -94,11 +99,8 @@ TEST(GiaBodyDriver, ABodyAwayFromTheClothIsLeftClean) {
   c.bodies.push_back(box(Vec3(10, 10, 10), Vec3(11, 11, 11)));
   const ContactDetection detection(c.faces, c.x, {1}, {0}, {0.002}, c.bodies, {1, 1});
   GiaBodyDriver driver(detection, 3);
-  CollisionStep step;
-  step.begin(c.x, c.v, 0.01);
-  body_step(step, c.bodies);
   CollisionTelemetry frame;
-  EXPECT_TRUE(driver.colour(step, 1, frame));
+  EXPECT_TRUE(colour_once(driver, c, frame));
   EXPECT_TRUE(driver.coloured(0, 0));
   EXPECT_TRUE(driver.cloth_face_contour(0, 0));
   EXPECT_FALSE(driver.clean(0));

@@ -488,6 +488,13 @@ GiaResult analyse(const std::array<MeshRef, 2>& mesh, const AabbTree& tree0, con
   return r;
 }
 
+// Mesh A against mesh B, positions already checked.
+GiaResult analyse_pair(const GiaMesh& a, const GiaMesh& b, const GiaOptions& options) {
+  const MeshRef ma{&a.x, &a.f, &a.topology, 0};
+  const MeshRef mb{&b.x, &b.f, &b.topology, static_cast<std::int64_t>(a.x.rows())};
+  return analyse({ma, mb}, a.tree, b.tree, false, options);
+}
+
 }  // namespace
 
 AabbTree gia_triangle_tree(const Positions& x, const Faces& f) {
@@ -505,15 +512,13 @@ GiaResult analyse_intersections(const Positions& xa, const Faces& fa, const Posi
   const GiaTopology ta = build_gia_topology(static_cast<int>(xa.rows()), fa);
   const GiaTopology tb = build_gia_topology(static_cast<int>(xb.rows()), fb);
   const AabbTree tree_a = gia_triangle_tree(xa, fa), tree_b = gia_triangle_tree(xb, fb);
-  return analyse_intersections(GiaMesh{xa, fa, ta, tree_a}, GiaMesh{xb, fb, tb, tree_b}, options);
+  return analyse_pair(GiaMesh{xa, fa, ta, tree_a}, GiaMesh{xb, fb, tb, tree_b}, options);
 }
 
 GiaResult analyse_intersections(const GiaMesh& a, const GiaMesh& b, const GiaOptions& options) {
   check_positions(a.x, "mesh A");
   check_positions(b.x, "mesh B");
-  const MeshRef ma{&a.x, &a.f, &a.topology, 0};
-  const MeshRef mb{&b.x, &b.f, &b.topology, static_cast<std::int64_t>(a.x.rows())};
-  return analyse({ma, mb}, a.tree, b.tree, false, options);
+  return analyse_pair(a, b, options);
 }
 
 GiaResult analyse_self_intersections(const Positions& x, const Faces& f, const GiaOptions& options) {
