@@ -231,14 +231,15 @@ void CollisionSystem::respond(const Positions& x, Positions& v, double h, const 
   step_.end();
 }
 
-int CollisionSystem::count_intersections(const Positions& x, const std::vector<KinematicBody>& bodies) {
+int CollisionSystem::count_intersections(const Positions& x, const std::vector<KinematicBody>& bodies,
+                                         int* cloth_cloth) {
   int total = 0;
   const Faces& faces = detection_.cloth_faces();
   // Self-candidates first: they refit the cloth tree without margin, which the body pairs use.
   if (detection_.any_self()) {
     const int self = count_self_intersections_among(x, faces, detection_.self_intersection_candidates(x),
                                                     detection_.face_self(), threads_);
-    if (self > 0) self_due_ = true;
+    if (cloth_cloth) *cloth_cloth = self;
     total += self;
   } else
     detection_.refit_cloth(x, x, 0.0);
@@ -255,7 +256,9 @@ int CollisionSystem::count_intersections(const Positions& x, const std::vector<K
 CollisionTelemetry CollisionSystem::end_frame(const Positions& x, const std::vector<KinematicBody>& bodies) {
   if (settings_.count_intersections) {
     const Timer timer;
-    frame_.intersections = count_intersections(x, bodies);
+    int cloth_cloth = 0;
+    frame_.intersections = count_intersections(x, bodies, &cloth_cloth);
+    if (cloth_cloth > 0) self_due_ = true;
     if (frame_.intersections > 0) gia_due_ = true;
     contacts_aside_ = frame_.intersections > 0;  // what a run resumed at this frame sees too
     frame_.intersection_seconds += timer.seconds();

@@ -58,11 +58,10 @@ class CollisionSystem {
   bool has_contact_constraints() const { return !constraints_.empty(); }
   void contact_impulses(const VectorX& residual) { frame_.released_contacts += constraints_.impulses(residual); }
 
-  // Exact count of intersecting triangle pairs (cloth/body for collidable bodies at the end of
-  // the frame, cloth/cloth among self-colliding faces).
-  // Exact count of intersecting triangle pairs at x (cloth/body and cloth/cloth as switched on),
-  // over the broad phase's trees with self-culling (refits them).
-  int count_intersections(const Positions& x, const std::vector<KinematicBody>& bodies);
+  // Exact count of intersecting triangle pairs at x (cloth/body for collidable bodies, cloth/cloth
+  // among self-colliding faces), over the broad phase's trees with self-culling (refits them).
+  // cloth_cloth: where given, receives the cloth/cloth part of the count.
+  int count_intersections(const Positions& x, const std::vector<KinematicBody>& bodies, int* cloth_cloth = nullptr);
 
   // Colliding pairs left unresolved so far this frame; a retried step's are taken back.
   int unresolved() const { return frame_.unresolved; }
