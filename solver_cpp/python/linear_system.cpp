@@ -86,6 +86,7 @@ void bind_linear_system(py::module_& m) {
       .def_readonly("multigrid_operator_complexity", &LinearSystemInfo::multigrid_operator_complexity)
       .def_readonly("multigrid_structure_seconds", &LinearSystemInfo::multigrid_structure_seconds)
       .def_readonly("multigrid_setup_seconds", &LinearSystemInfo::multigrid_setup_seconds)
+      .def_readonly("multigrid_refreshes", &LinearSystemInfo::multigrid_refreshes)
       .def_readonly("solves", &LinearSystemInfo::solves);
 
   m.def("linear_system_info", [](Simulation& s) { return s.linear_system().info(); }, py::arg("simulation"));

@@ -27,7 +27,7 @@ def fake_result() -> dict:
         records.append(dict(common, path="fast+multigrid", preconditioner="multigrid", precision="float32",
                             measured="1 frame", build_s_per_frame=0.1, solve_s_per_frame=0.05, sim_s_per_frame=0.16,
                             s_per_step=0.04, cg_iterations_per_step=18.5, extra={
-                                "multigrid_setup_s_per_frame": 0.01, "multigrid_rows": [vertices, vertices // 9, 40],
+                                "multigrid_setup_s_per_frame": 0.01, "multigrid_refreshes_per_step": 0.25, "multigrid_rows": [vertices, vertices // 9, 40],
                                 "multigrid_operator_complexity": 1.24, "solve_speedup_over_block_jacobi": 4.0,
                                 "sim_speedup_over_block_jacobi": 1.94}))
         records.append(dict(common, path="reference", precision="float64", measured="1 of 4 steps, scaled",
@@ -41,7 +41,7 @@ def test_format_tables_has_every_section() -> None:
     text = format_tables(fake_result())
     assert "| sheet-10000 | 10000 | fast (float32) |" in text
     assert "Eigen CG double" in text and "Growth exponent" in text and "67% fewer" in text
-    assert "| | | multigrid | 18.5 | 0.010 | 0.050 | 0.160 | 4.00 | 1.94 | 10000 / 1111 / 40 | 1.24 |" in text
+    assert "| | | multigrid | 18.5 | 0.010 | 0.25 | 0.050 | 0.160 | 4.00 | 1.94 | 10000 / 1111 / 40 | 1.24 |" in text
     assert "with multigrid, of s/step: 0.00" in text
     assert abs(growth_exponent([1.0, 2.0, 4.0], [3.0, 6.0, 12.0]) - 1.0) < 1e-12
 

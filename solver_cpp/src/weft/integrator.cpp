@@ -235,6 +235,7 @@ FrameTelemetry Simulation::advance_frame(double frame_start_time, double frame_d
   const Timer frame_timer;
   const double h = frame_duration / substeps;
   if (collisions_) collisions_->begin_frame();
+  linear_->start_frame();
   for (int s = 0; s < substeps; ++s)
     substep(frame_start_time + s * h, h, static_cast<double>(s) / substeps, static_cast<double>(s + 1) / substeps, 0,
             telemetry);

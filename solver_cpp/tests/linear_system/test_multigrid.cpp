@@ -28,6 +28,12 @@ ConstraintFilter sheet_filter(int nx, int ny) {
   return filter;
 }
 
+LinearSystemOptions multigrid_options() {
+  LinearSystemOptions options;
+  options.preconditioner = Preconditioner::kMultigrid;
+  return options;
+}
+
 // The fixed-pattern blocks of the fast system (row order) and the filter in row order.
 struct RowOrderSystem {
   SmoothedAggregation multigrid;
@@ -244,4 +250,83 @@ TEST(Multigrid, LanczosEstimateOfTheSpectralRadiusIsCloseBelowIt) {
     EXPECT_LE(s.multigrid.spectral_radius(l), 1.001 * lambda) << "level " << l;
     EXPECT_GE(s.multigrid.spectral_radius(l), 0.95 * lambda) << "level " << l;
   }
+}
+
+// The hierarchy's values are reused from solve to solve within a frame (only the finest level's
+// operator follows the matrix) and recomputed at a new frame, a new step size, a new filter or
+// when the reused values cost clearly more iterations than fresh ones did.
+TEST(Multigrid, ReusesTheHierarchyWithinAFrameAndRefreshesWhenDue) {
+  const int nx = 40, ny = 36;
+  SmallCloth cloth(nx, ny, 10.0);
+  FastLinearSystem<float> fast(cloth.mesh, *cloth.model, multigrid_options(), 2);
+  const ConstraintFilter filter = sheet_filter(nx, ny);
+  const PcgSettings pcg{1e-6, 2000};
+  // The upper half of the sheet turned by `angle` about its middle row: a different matrix.
+  auto folded = [&](double angle) {
+    Positions x = cloth.x;
+    const double z0 = cloth.x(nx * (ny / 2), 2), c = std::cos(angle), s = std::sin(angle);
+    for (int i = nx * (ny / 2); i < nx * ny; ++i) {
+      const double dz = cloth.x(i, 2) - z0;
+      x(i, 1) = cloth.x(i, 1) + s * dz;
+      x(i, 2) = z0 + c * dz;
+    }
+    return x;
+  };
+  auto solve_at = [&](FastLinearSystem<float>& system, const Positions& x, double h, const ConstraintFilter& f) {
+    system.build(x, cloth.v, 0.0, h);
+    VectorX dv = VectorX::Zero(3 * nx * ny);
+    const PcgStats stats = system.solve_with(f, dv, pcg);
+    EXPECT_TRUE(stats.converged);
+    EXPECT_LT(filtered_residual(system, f, dv), 1.5e-6);
+    return stats;
+  };
+  auto refreshes = [&] { return fast.info().multigrid_refreshes; };
+
+  fast.start_frame();
+  const PcgStats first = solve_at(fast, cloth.x, kStep, filter);
+  EXPECT_EQ(refreshes(), 1);
+  // A substep's worth of motion (3 degrees): the reused values precondition nearly as well.
+  const PcgStats reused = solve_at(fast, folded(0.05), kStep, filter);
+  EXPECT_EQ(refreshes(), 1) << "same frame, step and filter: values reused";
+  FastLinearSystem<float> fresh(cloth.mesh, *cloth.model, multigrid_options(), 2);
+  const PcgStats fresh_stats = solve_at(fresh, folded(0.05), kStep, filter);
+  std::cout << "sheet folded 3 degrees: " << reused.iterations << " iterations with reused values, "
+            << fresh_stats.iterations << " with fresh ones\n";
+  EXPECT_LE(reused.iterations, fresh_stats.iterations + std::max(2, fresh_stats.iterations / 4));
+  // A 40-degree fold in one solve: the reused values fall behind, and the next solve refreshes.
+  const PcgStats behind = solve_at(fast, folded(0.7), kStep, filter);
+  EXPECT_EQ(refreshes(), 1);
+  EXPECT_GT(behind.iterations, first.iterations + std::max(2, first.iterations / 4));
+  solve_at(fast, folded(0.7), kStep, filter);
+  EXPECT_EQ(refreshes(), 2) << "too many iterations with reused values";
+
+  solve_at(fast, folded(0.7), kStep / 2, filter);
+  EXPECT_EQ(refreshes(), 3) << "a new step size";
+  ConstraintFilter contact = filter;
+  contact.constrain_direction(nx * (ny / 4) + nx / 2, Vec3(0.0, 1.0, 0.0), 0.0);
+  solve_at(fast, folded(0.7), kStep / 2, contact);
+  EXPECT_EQ(refreshes(), 4) << "a new filter";
+  solve_at(fast, folded(0.7), kStep / 2, contact);
+  EXPECT_EQ(refreshes(), 4);
+  fast.start_frame();
+  solve_at(fast, folded(0.7), kStep / 2, contact);
+  EXPECT_EQ(refreshes(), 5) << "a new frame";
+}
+
+TEST(Multigrid, AReusedHierarchyThatFailsToConvergeIsRefreshedAndTheSolveResumed) {
+  const int nx = 30, ny = 25;
+  SmallCloth cloth(nx, ny, 10.0);
+  FastLinearSystem<float> fast(cloth.mesh, *cloth.model, multigrid_options(), 2);
+  const ConstraintFilter filter = sheet_filter(nx, ny);
+  const PcgSettings three{1e-12, 3};  // no solve converges in three iterations
+  fast.build(cloth.x, cloth.v, 0.0, kStep);
+  VectorX dv = VectorX::Zero(3 * nx * ny);
+  const PcgStats first = fast.solve_with(filter, dv, three);
+  EXPECT_FALSE(first.converged);
+  EXPECT_EQ(first.iterations, 3);
+  EXPECT_EQ(fast.info().multigrid_refreshes, 1);
+  const PcgStats second = fast.solve_with(filter, dv, three);  // reused values, then fresh ones
+  EXPECT_FALSE(second.converged);
+  EXPECT_EQ(second.iterations, 6);
+  EXPECT_EQ(fast.info().multigrid_refreshes, 2);
 }

@@ -104,6 +104,20 @@ class BcrsMatrix {
       multiply_with(columns32_.data(), x, y, threads, chunk_dots);
   }
 
+  // y = A x row by row, handed to epilogue(r, y0, y1, y2) instead of stored: an SpMV fused with
+  // the vector update that consumes it (the multigrid smoother). float32 values and no transient
+  // part only: x is rounded to float32 before any product, so the epilogue may overwrite row r
+  // of x (and of anything else) in place. The same bits as multiply().
+  template <class Epilogue>
+  void multiply_rows(const double* x, int threads, Epilogue&& epilogue) const {
+    static_assert(std::is_same_v<Scalar, float>, "multiply_rows reads x through its float32 copy");
+    if (!transient_rows_.empty()) throw std::logic_error("multiply_rows: the matrix has transient blocks");
+    round_x(x, threads);
+    if (narrow_)
+      rows_with(offsets16_.data(), threads, epilogue);
+    else
+      rows_with(columns32_.data(), threads, epilogue);
+  }
   struct TransientEntry {
     int row, col;
     const Scalar* values;
@@ -229,19 +243,7 @@ class BcrsMatrix {
   void multiply_with(const Index* idx, const double* x, double* y, int threads, double* chunk_dots) const {
     const bool with_transient = !transient_rows_.empty();
     const int chunks = static_cast<int>((rows_ + kReductionChunk - 1) / kReductionChunk);
-    if constexpr (std::is_same_v<Scalar, float>) {
-      // x rounded to float32 once per product (not once per block that reads it), 4 lanes per
-      // vertex for one load per block: the same roundings, the same bits.
-      x_float_.resize(4 * static_cast<size_t>(rows_));
-#pragma omp parallel for schedule(static) num_threads(threads)
-      for (int r = 0; r < rows_; ++r) {
-        float* xf = x_float_.data() + 4 * static_cast<size_t>(r);
-        xf[0] = static_cast<float>(x[3 * r]);
-        xf[1] = static_cast<float>(x[3 * r + 1]);
-        xf[2] = static_cast<float>(x[3 * r + 2]);
-        xf[3] = 0.0f;
-      }
-    }
+    if constexpr (std::is_same_v<Scalar, float>) round_x(x, threads);
 #pragma omp parallel for schedule(static) num_threads(threads)
     for (int c = 0; c < chunks; ++c) {
       const int begin = static_cast<int>(c * kReductionChunk);
@@ -255,6 +257,29 @@ class BcrsMatrix {
         for (int i = 3 * begin; i < 3 * end; i += 3) dot += x[i] * y[i] + x[i + 1] * y[i + 1] + x[i + 2] * y[i + 2];
         chunk_dots[c] = dot;
       }
+    }
+  }
+
+  // float32: x rounded once per product (not once per block that reads it), 4 lanes per vertex
+  // for one load per block: the same roundings, the same bits.
+  void round_x(const double* x, int threads) const {
+    x_float_.resize(4 * static_cast<size_t>(rows_));
+#pragma omp parallel for schedule(static) num_threads(threads)
+    for (int r = 0; r < rows_; ++r) {
+      float* xf = x_float_.data() + 4 * static_cast<size_t>(r);
+      xf[0] = static_cast<float>(x[3 * r]);
+      xf[1] = static_cast<float>(x[3 * r + 1]);
+      xf[2] = static_cast<float>(x[3 * r + 2]);
+      xf[3] = 0.0f;
+    }
+  }
+  template <class Index, class Epilogue>
+  void rows_with(const Index* idx, int threads, Epilogue& epilogue) const {
+#pragma omp parallel for schedule(static) num_threads(threads)
+    for (int r = 0; r < rows_; ++r) {
+      double y0 = 0.0, y1 = 0.0, y2 = 0.0;
+      fixed_row(idx, r, nullptr, y0, y1, y2);
+      epilogue(r, y0, y1, y2);
     }
   }
 

@@ -105,6 +105,8 @@ template <class Scalar>
 void FastLinearSystem<Scalar>::build(const Positions& x, const Positions& v, double time, double h) {
   const int n = mesh_.vertex_count;
   const int threads = options_.threads;
+  if (h != last_h_) multigrid_stale_ = true;  // h^2 K against M: a different operator
+  last_h_ = h;
   compute_force_elements(model_, layout_, x, v, time, h, threads, storage_);
   reduce_transient(transient_, new_of_old_, v, h, threads, transient_rows_);
   const bool any_transient = !transient_rows_.rows.empty();
@@ -228,7 +230,20 @@ PcgStats FastLinearSystem<Scalar>::solve_with(const ConstraintFilter& filter, Ve
     const double setup = multigrid_last_setup_seconds_;
     auto cycle = [this, threads](const VectorX& r, VectorX& z) { multigrid_->apply(r, z, threads); };
     stats = prefiltered_pcg(apply, diagonal_, permuted_filter_, rhs_, permuted_dv_, pcg, threads, cycle);
-    stats.preconditioner_setup_seconds = setup;
+    double setup_seconds = setup;
+    if (!stats.converged && !multigrid_refreshed_) {
+      // Reused values that no longer fit: once more from where CG stopped, with fresh ones.
+      const int reused_iterations = stats.iterations;
+      multigrid_stale_ = true;
+      if (prepare_multigrid(threads)) {
+        setup_seconds += multigrid_last_setup_seconds_;
+        stats = prefiltered_pcg(apply, diagonal_, permuted_filter_, rhs_, permuted_dv_, pcg, threads, cycle);
+        stats.iterations += reused_iterations;
+      }
+    }
+    stats.preconditioner_setup_seconds = setup_seconds;
+    if (multigrid_refreshed_) multigrid_fresh_iterations_ = stats.iterations;
+    multigrid_last_iterations_ = stats.iterations;
   } else {
     stats = prefiltered_pcg(apply, diagonal_, permuted_filter_, rhs_, permuted_dv_, pcg, threads);
   }
@@ -259,14 +274,49 @@ bool FastLinearSystem<Scalar>::prepare_multigrid(int threads) {
     multigrid_structure_seconds_ = timer.seconds();
     timer.restart();
   }
+  multigrid_refreshed_ = multigrid_refresh_due();
+  multigrid_last_setup_seconds_ = 0.0;
+  if (!multigrid_refreshed_) {
+    ++multigrid_age_;
+    multigrid_->update_fine(matrix_, permuted_filter_, threads);
+    multigrid_last_setup_seconds_ = timer.seconds();
+    multigrid_setup_seconds_ += multigrid_last_setup_seconds_;
+    return true;
+  }
   try {
     multigrid_->update(matrix_, permuted_filter_, threads);
   } catch (const std::runtime_error&) {  // coarsest level not SPD (a broken matrix)
+    multigrid_stale_ = true;
     return false;
   }
+  multigrid_stale_ = false;
+  multigrid_age_ = 0;
+  refreshed_filter_.constrained_vertices = permuted_filter_.constrained_vertices;
+  if (permuted_filter_.constrained_vertices > 0) refreshed_filter_.projection = permuted_filter_.projection;
+  ++multigrid_refreshes_;
   multigrid_last_setup_seconds_ = timer.seconds();
   multigrid_setup_seconds_ += multigrid_last_setup_seconds_;
   return true;
+}
+
+// The hierarchy's values (filtered fine operator, smoother bounds, prolongators, coarse
+// operators) are a preconditioner: any symmetric positive-definite one keeps CG exact, and
+// those of a recent substep's matrix precondition this one nearly as well at no setup cost
+// (the setup is worth about 5 CG iterations; docs/multigrid.md, "Reuse"). The finest level's
+// operator is always the current one (the smoother needs it); the rest is recomputed at the
+// first solve of every frame (so a resumed run repeats the original bit for bit), when the
+// step size or the constraint filter changed (a new contact set cost a drape 60% more
+// iterations), after kMultigridMaxAge reuses, when the last solve needed
+// clearly more iterations than the one right after the last refresh, and - in solve_with -
+// at once when a solve with reused values did not converge.
+template <class Scalar>
+bool FastLinearSystem<Scalar>::multigrid_refresh_due() const {
+  if (multigrid_stale_ || multigrid_age_ >= kMultigridMaxAge) return true;
+  if (permuted_filter_.constrained_vertices != refreshed_filter_.constrained_vertices) return true;
+  if (permuted_filter_.constrained_vertices > 0 && permuted_filter_.projection != refreshed_filter_.projection)
+    return true;
+  const int fresh = multigrid_fresh_iterations_;
+  return multigrid_last_iterations_ > fresh + std::max(2, fresh / 4);
 }
 
 template <class Scalar>
@@ -300,6 +350,7 @@ LinearSystemInfo FastLinearSystem<Scalar>::info() const {
   }
   i.multigrid_structure_seconds = multigrid_structure_seconds_;
   i.multigrid_setup_seconds = multigrid_setup_seconds_;
+  i.multigrid_refreshes = multigrid_refreshes_;
   i.solves = solves_;
   return i;
 }

@@ -9,7 +9,8 @@
 // merges transient entries that overlap the pattern; the rest become the transient part.
 // Solve: the filter, rhs and warm start are permuted into RCM order and the pre-filtered PCG
 // (pcg.h) runs with the BCRS SpMV (bcrs.h), preconditioned by block Jacobi or by smoothed-
-// aggregation multigrid (multigrid.h; structure built at the first solve, values every solve).
+// aggregation multigrid (multigrid.h; structure built at the first solve, the finest level's
+// values every solve, the rest when due: multigrid_refresh_due).
 #pragma once
 
 #include <Eigen/SparseCore>
@@ -22,7 +23,8 @@
 
 namespace weft {
 
-constexpr int kParallelSolveRows = 2048;  // smaller systems solve on one thread (barriers: weft/__init__.py)
+constexpr int kParallelSolveRows = 2048;
+constexpr int kMultigridMaxAge = 7;  // solves that may reuse the hierarchy's values (fast_linear_system.cpp)  // smaller systems solve on one thread (barriers: weft/__init__.py)
 
 template <class Scalar>
 class FastLinearSystem final : public LinearSystemPath {
@@ -34,6 +36,7 @@ class FastLinearSystem final : public LinearSystemPath {
   PcgStats solve(const ConstraintFilter& filter, VectorX& dv) override;
   void residual(const VectorX& dv, VectorX& r) const override;
   TransientElements* transient() override { return &transient_; }
+  void start_frame() override { multigrid_stale_ = true; }
   LinearSystemInfo info() const override;
 
   const BcrsMatrix<Scalar>& matrix() const { return matrix_; }
@@ -51,9 +54,11 @@ class FastLinearSystem final : public LinearSystemPath {
   const SmoothedAggregation* multigrid() const { return multigrid_.get(); }
 
  private:
-  // Builds the hierarchy's structure (first call) and values for the permuted filter; false
-  // when multigrid cannot be used (block Jacobi then). Times into the multigrid_*_seconds_.
+  // Builds the hierarchy's structure (first call) and, when due (multigrid_refresh_due), its
+  // values for the permuted filter; false when multigrid cannot be used (block Jacobi then).
+  // Times into the multigrid_*_seconds_.
   bool prepare_multigrid(int threads);
+  bool multigrid_refresh_due() const;
 
   const ClothMesh& mesh_;
   const ForceModel& model_;
@@ -78,6 +83,14 @@ class FastLinearSystem final : public LinearSystemPath {
   std::unique_ptr<SmoothedAggregation> multigrid_;
   double multigrid_structure_seconds_ = 0.0, multigrid_setup_seconds_ = 0.0, multigrid_last_setup_seconds_ = 0.0;
   long long solves_ = 0;
+  // Reuse of the hierarchy's values from solve to solve (multigrid_refresh_due).
+  bool multigrid_stale_ = true;       // a new frame, a new step size or a failed solve
+  bool multigrid_refreshed_ = false;  // the last prepare_multigrid recomputed the values
+  int multigrid_age_ = 0;             // solves since the values were computed
+  int multigrid_fresh_iterations_ = 0, multigrid_last_iterations_ = 0;
+  long long multigrid_refreshes_ = 0;
+  ConstraintFilter refreshed_filter_;  // the filter of the last refresh (its projections)
+  double last_h_ = 0.0;
   bool last_multigrid_ = false;
   bool multigrid_unusable_ = false;  // the pattern gave no hierarchy: block Jacobi
 };

@@ -49,6 +49,7 @@ struct LinearSystemInfo {
   double multigrid_operator_complexity = 0.0;  // blocks of all levels / blocks of the finest
   double multigrid_structure_seconds = 0.0;    // aggregation and patterns, once
   double multigrid_setup_seconds = 0.0;        // values of the hierarchy, summed over solves
+  long long multigrid_refreshes = 0;           // solves that recomputed them (the rest reused them)
   long long solves = 0;                        // solves so far
 };
 
@@ -63,6 +64,10 @@ class LinearSystemPath {
   // whose direction n a constraint prescribed, -n . r_i is the impulse the constraint had to add
   // (positive when it pushed along n).
   virtual void residual(const VectorX& dv, VectorX& r) const = 0;
+  // A new frame begins: whatever the path carries from solve to solve (the multigrid
+  // hierarchy's values) is recomputed at the next solve, so a frame's result never depends on
+  // the frames before the one a run was resumed from.
+  virtual void start_frame() {}
   // Transient elements of the coming build() (cleared by the caller); null when unsupported.
   virtual TransientElements* transient() { return nullptr; }
   virtual LinearSystemInfo info() const = 0;

@@ -185,14 +185,17 @@ double SmoothedAggregation::estimate_spectral_radius(const Level& level, int thr
 }
 
 template <class T>
-void BlockRowsOf<T>::multiply(const VectorX& x, VectorX& y, int threads) const {
-  y.resize(3 * static_cast<Eigen::Index>(rows));
+void BlockRowsOf<T>::multiply(const VectorX& x, VectorX& y, int threads, bool accumulate) const {
+  if (!accumulate) y.resize(3 * static_cast<Eigen::Index>(rows));
 #pragma omp parallel for schedule(static) num_threads(threads) if (threads > 1)
   for (int i = 0; i < rows; ++i) {
     Vec3 s = Vec3::Zero();
     for (int k = start[i]; k < start[i + 1]; ++k)
       s.noalias() += value[k].template cast<double>() * x.segment<3>(3 * column[k]);
-    y.segment<3>(3 * i) = s;
+    if (accumulate)
+      y.segment<3>(3 * i) += s;
+    else
+      y.segment<3>(3 * i) = s;
   }
 }
 template struct BlockRowsOf<float>;
@@ -281,14 +284,14 @@ bool SmoothedAggregation::coarsen_structure(int l, const Graph& strength) {
       }
     });
     // R = P^T, rows filled in fine-row order.
-    BlockRows& r = level.r;
+    BlockRowsF& r = level.r;
     r.rows = nc;
     r.cols = n;
     r.start.assign(nc + 1, 0);
     for (int c : level.p.column) ++r.start[c + 1];
     for (int J = 0; J < nc; ++J) r.start[J + 1] += r.start[J];
     r.column.resize(level.p.column.size());
-    r.value.assign(level.p.column.size(), Mat3::Zero());
+    r.value.assign(level.p.column.size(), Mat3f::Zero());
     level.r_source.resize(level.p.column.size());
     std::vector<int> rfill(r.start.begin(), r.start.end() - 1);
     for (int i = 0; i < n; ++i)
@@ -328,6 +331,27 @@ void SmoothedAggregation::update_blocks(const std::vector<Mat3>& fine_blocks, co
 }
 
 void SmoothedAggregation::update_values(const ConstraintFilter& filter, int threads) {
+  filter_fine_level(filter, threads);
+  finish_level(0, threads);
+  for (int l = 0; l + 1 < levels(); ++l) {
+    update_level_values(l, threads);
+    finish_level(l + 1, threads);
+  }
+  const BlockRowsF& last = levels_.back().a;
+  Eigen::MatrixXd dense = Eigen::MatrixXd::Zero(3 * last.rows, 3 * last.rows);
+  for (int i = 0; i < last.rows; ++i)
+    for (int k = last.start[i]; k < last.start[i + 1]; ++k)
+      dense.block<3, 3>(3 * i, 3 * last.column[k]) = last.value[k].cast<double>();
+  coarse_solver_.compute(dense);
+  if (coarse_solver_.info() != Eigen::Success) throw std::runtime_error("multigrid: coarsest matrix not positive definite");
+}
+
+void SmoothedAggregation::update_fine_values(const ConstraintFilter& filter, int threads) {
+  filter_fine_level(filter, threads);
+  finish_level(0, threads);
+}
+
+void SmoothedAggregation::filter_fine_level(const ConstraintFilter& filter, int threads) {
   Level& fine = levels_[0];
   const int n = fine.a.rows;
   const int th = level_threads(n, threads);
@@ -354,18 +378,6 @@ void SmoothedAggregation::update_values(const ConstraintFilter& filter, int thre
   } else {
     std::fill(fine.near_null.begin(), fine.near_null.end(), Mat3::Identity());
   }
-  finish_level(0, threads);
-  for (int l = 0; l + 1 < levels(); ++l) {
-    update_level_values(l, threads);
-    finish_level(l + 1, threads);
-  }
-  const BlockRowsF& last = levels_.back().a;
-  Eigen::MatrixXd dense = Eigen::MatrixXd::Zero(3 * last.rows, 3 * last.rows);
-  for (int i = 0; i < last.rows; ++i)
-    for (int k = last.start[i]; k < last.start[i + 1]; ++k)
-      dense.block<3, 3>(3 * i, 3 * last.column[k]) = last.value[k].cast<double>();
-  coarse_solver_.compute(dense);
-  if (coarse_solver_.info() != Eigen::Success) throw std::runtime_error("multigrid: coarsest matrix not positive definite");
 }
 
 void SmoothedAggregation::finish_level(int l, int threads) {
@@ -375,6 +387,10 @@ void SmoothedAggregation::finish_level(int l, int threads) {
 #pragma omp parallel for schedule(static) num_threads(th) if (th > 1)
   for (std::int64_t k = 0; k < blocks; ++k)  // both column-major
     std::copy(level.a.value[k].data(), level.a.value[k].data() + 9, level.kernel.block(static_cast<int>(k)));
+  if (l + 1 == levels()) return;  // the coarsest level is solved exactly
+#pragma omp parallel for schedule(static) num_threads(th) if (th > 1)
+  for (int i = 0; i < level.a.rows; ++i)
+    level.inverse_diagonal[i] = level.a.value[level.diagonal[i]].cast<double>().inverse();
 }
 
 void SmoothedAggregation::update_level_values(int l, int threads) {
@@ -383,9 +399,6 @@ void SmoothedAggregation::update_level_values(int l, int threads) {
   const BlockRowsF& a = level.a;
   const int n = a.rows, nc = next.a.rows;
   const int th = level_threads(n, threads);
-
-#pragma omp parallel for schedule(static) num_threads(th) if (th > 1)
-  for (int i = 0; i < n; ++i) level.inverse_diagonal[i] = a.value[level.diagonal[i]].cast<double>().inverse();
 
   level.rho = estimate_spectral_radius(level, th, options_.lanczos_steps);
   // Tentative prolongator: T_i = B_i G_J^(-1/2) on the range of G_J; next level's B_J = G_J^(1/2).
@@ -431,26 +444,27 @@ void SmoothedAggregation::update_level_values(int l, int threads) {
 
   // Smoothed prolongator P = (I - omega D^-1 A) T.
   const double omega = 4.0 / (3.0 * level.rho);
-  BlockRows& p = level.p;
+  BlockRowsF& p = level.p;
 #pragma omp parallel num_threads(th) if (th > 1)
   {
     std::vector<int> where(nc, -1);
+    std::vector<Mat3> row;  // row i of P in double, rounded once when stored
 #pragma omp for schedule(static)
     for (int i = 0; i < n; ++i) {
-      for (int k = p.start[i]; k < p.start[i + 1]; ++k) {
-        where[p.column[k]] = k;
-        p.value[k].setZero();
-      }
+      const int begin = p.start[i], count = p.start[i + 1] - begin;
+      row.assign(count, Mat3::Zero());
+      for (int k = 0; k < count; ++k) where[p.column[begin + k]] = k;
       for (int k = a.start[i]; k < a.start[i + 1]; ++k) {
         const int j = a.column[k];
-        p.value[where[level.aggregate[j]]].noalias() += a.value[k].cast<double>() * level.tentative[j];
+        row[where[level.aggregate[j]]].noalias() += a.value[k].cast<double>() * level.tentative[j];
       }
       const Mat3 scale = -omega * level.inverse_diagonal[i];
-      for (int k = p.start[i]; k < p.start[i + 1]; ++k) p.value[k] = (scale * p.value[k]).eval();
-      p.value[where[level.aggregate[i]]] += level.tentative[i];
+      for (Mat3& block : row) block = (scale * block).eval();
+      row[where[level.aggregate[i]]] += level.tentative[i];
+      for (int k = 0; k < count; ++k) p.value[begin + k] = row[k].cast<float>();
     }
   }
-  BlockRows& r = level.r;
+  BlockRowsF& r = level.r;
   const int thr = level_threads(static_cast<int>(r.value.size()) / 8, threads);
 #pragma omp parallel for schedule(static) num_threads(thr) if (thr > 1)
   for (std::int64_t k = 0; k < static_cast<std::int64_t>(r.value.size()); ++k)
@@ -469,18 +483,17 @@ void SmoothedAggregation::update_level_values(int l, int threads) {
 }
 
 void SmoothedAggregation::smooth(const Level& level, const VectorX& f, VectorX& x, bool zero_start, int threads) const {
-  // Chebyshev iteration for D^-1 A on [lower, upper] (Saad, Iterative Methods, alg. 12.1).
+  // Chebyshev iteration for D^-1 A on [lower, upper] (Saad, Iterative Methods, alg. 12.1). Each
+  // product is fused with the update that consumes it (BcrsMatrix::multiply_rows): rr, d and x
+  // are rewritten row by row while the product reads its float32 copy of the multiplied vector.
   const int n = level.a.rows;
   const double upper = options_.upper_factor * level.rho, lower = options_.lower_ratio * upper;
   const double theta = 0.5 * (upper + lower), delta = 0.5 * (upper - lower), sigma = theta / delta;
   VectorX& rr = level.rr;
   VectorX& d = level.d;
-  VectorX& t = level.t;
-  if (!zero_start) level.kernel.multiply(x.data(), t.data(), threads);
-#pragma omp parallel for schedule(static) num_threads(threads) if (threads > 1)
-  for (int i = 0; i < n; ++i) {
-    const Vec3 res = zero_start ? Vec3(f.segment<3>(3 * i)) : Vec3(f.segment<3>(3 * i) - t.segment<3>(3 * i));
-    const Vec3 ri = level.inverse_diagonal[i] * res;
+  // First step: rr = D^-1 (f - A x), d = rr / theta, x += d (x = d from a zero start).
+  auto first = [&](int i, const Vec3& ax) {
+    const Vec3 ri = level.inverse_diagonal[i] * Vec3(f.segment<3>(3 * i) - ax);
     rr.segment<3>(3 * i) = ri;
     const Vec3 di = ri / theta;
     d.segment<3>(3 * i) = di;
@@ -488,48 +501,53 @@ void SmoothedAggregation::smooth(const Level& level, const VectorX& f, VectorX& 
       x.segment<3>(3 * i) = di;
     else
       x.segment<3>(3 * i) += di;
+  };
+  if (zero_start) {
+#pragma omp parallel for schedule(static) num_threads(threads) if (threads > 1)
+    for (int i = 0; i < n; ++i) first(i, Vec3::Zero());
+  } else {
+    level.kernel.multiply_rows(x.data(), threads,
+                               [&](int i, double y0, double y1, double y2) { first(i, Vec3(y0, y1, y2)); });
   }
   double rho_old = 1.0 / sigma;
   for (int k = 1; k < options_.smoother_degree; ++k) {
-    level.kernel.multiply(d.data(), t.data(), threads);
     const double rho_new = 1.0 / (2.0 * sigma - rho_old);
     const double c1 = rho_new * rho_old, c2 = 2.0 * rho_new / delta;
-#pragma omp parallel for schedule(static) num_threads(threads) if (threads > 1)
-    for (int i = 0; i < n; ++i) {
-      const Vec3 ri = rr.segment<3>(3 * i) - level.inverse_diagonal[i] * t.segment<3>(3 * i);
+    level.kernel.multiply_rows(d.data(), threads, [&](int i, double y0, double y1, double y2) {
+      const Vec3 ri = rr.segment<3>(3 * i) - level.inverse_diagonal[i] * Vec3(y0, y1, y2);
       rr.segment<3>(3 * i) = ri;
       const Vec3 di = c1 * d.segment<3>(3 * i) + c2 * ri;
       d.segment<3>(3 * i) = di;
       x.segment<3>(3 * i) += di;
-    }
+    });
     rho_old = rho_new;
   }
 }
 
-void SmoothedAggregation::cycle(int l, int threads) const {
+void SmoothedAggregation::cycle(int l, const VectorX& f, VectorX& x, int threads) const {
   const Level& level = levels_[l];
   if (l + 1 == levels()) {
-    level.x = coarse_solver_.solve(level.f);
+    x = coarse_solver_.solve(f);
     return;
   }
   const int th = level_threads(level.a.rows, threads);
   const Level& next = levels_[l + 1];
-  smooth(level, level.f, level.x, true, th);
-  level.kernel.multiply(level.x.data(), level.res.data(), th);
-  level.res = level.f - level.res;
-  level.r.multiply(level.res, next.f, level_threads(next.a.rows, threads));
-  cycle(l + 1, threads);
-  level.p.multiply(next.x, level.t, th);
-  level.x += level.t;
-  smooth(level, level.f, level.x, false, th);
+  smooth(level, f, x, true, th);
+  VectorX& res = level.res;
+  level.kernel.multiply_rows(x.data(), th, [&](int i, double y0, double y1, double y2) {
+    res.segment<3>(3 * i) = f.segment<3>(3 * i) - Vec3(y0, y1, y2);
+  });
+  level.r.multiply(res, next.f, level_threads(next.a.rows, threads));
+  cycle(l + 1, next.f, next.x, threads);
+  level.p.multiply(next.x, x, th, true);  // x += P x_c
+  smooth(level, f, x, false, th);
 }
 
 void SmoothedAggregation::apply(const VectorX& r, VectorX& z, int threads) const {
   const Level& fine = levels_[0];
   if (r.size() != 3 * static_cast<Eigen::Index>(fine.a.rows)) throw std::invalid_argument("multigrid: wrong vector size");
-  fine.f = r;
-  cycle(0, threads);
-  z = fine.x;
+  z.resize(r.size());
+  cycle(0, r, z, threads);
 }
 
 }  // namespace weft

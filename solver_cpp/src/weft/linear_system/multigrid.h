@@ -20,8 +20,8 @@
 // coarse correction, so the cycle is a symmetric positive-definite operator and CG stays valid.
 //
 // Structure (aggregates, patterns of P, A P, P^T, A_c) is built once from the fixed block
-// pattern; values (filter, rho, T, P, A_c, Cholesky) are recomputed by update() each solve,
-// since the matrix and the filter (contacts) change every substep. Only the fixed pattern enters
+// pattern; values (filter, rho, T, P, A_c, Cholesky) are recomputed by update(), or only the
+// finest level's operator by update_fine() (the owner decides when: fast_linear_system.cpp). Only the fixed pattern enters
 // the hierarchy: transient blocks outside it (contact springs) are left to CG's own product,
 // which keeps the preconditioner SPD (a spring minus its off-diagonal blocks is still PSD).
 // Every row is computed by one thread in a fixed order and every dot product is an ordered sum
@@ -48,11 +48,12 @@ struct BlockRowsOf {
   std::vector<int> start{0};
   std::vector<int> column;
   std::vector<Block> value;
-  // y = M x in double; rows split over threads, each row summed in column order.
-  void multiply(const VectorX& x, VectorX& y, int threads) const;
+  // y = M x (y += M x with accumulate) in double; rows split over threads, each row summed in
+  // column order.
+  void multiply(const VectorX& x, VectorX& y, int threads, bool accumulate = false) const;
 };
-using BlockRows = BlockRowsOf<double>;    // prolongators, restrictions, A P
-using BlockRowsF = BlockRowsOf<float>;    // level operators: float32 values, double arithmetic
+using BlockRows = BlockRowsOf<double>;    // A P (setup only)
+using BlockRowsF = BlockRowsOf<float>;    // level operators, prolongators, restrictions
 
 struct MultigridOptions {
   int coarse_rows = 64;         // stop coarsening at or below this many 3x3 rows
@@ -76,7 +77,11 @@ class SmoothedAggregation {
   // Values of every level for the fixed part of `a` filtered by `filter` (row order).
   template <class Scalar>
   void update(const BcrsMatrix<Scalar>& a, const ConstraintFilter& filter, int threads);
-  // Same, from the unfiltered fine blocks (in the pattern's block order) - tests.
+  // Only the finest level's operator (and smoother diagonal) for a new `a` and `filter`; the
+  // coarse levels, prolongators and smoother bounds stay those of the last update().
+  template <class Scalar>
+  void update_fine(const BcrsMatrix<Scalar>& a, const ConstraintFilter& filter, int threads);
+  // Same as update, from the unfiltered fine blocks (in the pattern's block order) - tests.
   void update_blocks(const std::vector<Mat3>& fine_blocks, const ConstraintFilter& filter, int threads);
   // z = B r: one V(1,1) cycle from zero. The caller filters r and z (pcg.h).
   void apply(const VectorX& r, VectorX& z, int threads) const;
@@ -97,20 +102,26 @@ class SmoothedAggregation {
     std::vector<Mat3> near_null;       // B_i
     std::vector<int> aggregate;        // node -> coarse node (not on the coarsest level)
     std::vector<int> member_start, members;  // aggregates' nodes, in order
-    BlockRows p, r, ap;                // prolongator, restriction P^T, A P
+    BlockRowsF p, r;                   // prolongator and restriction P^T (float32: R = P^T exactly)
+    BlockRows ap;                      // A P (double, setup only)
     std::vector<int> r_source;         // r.value[k] = p.value[r_source[k]]^T
     std::vector<Mat3> tentative;       // T_i (row i's block of T, column aggregate[i])
     std::vector<Mat3> kept;            // Q_J of the coarse nodes (range of G_J)
     double rho = 1.0;
-    mutable VectorX x, f, res, d, t, rr;  // V-cycle work vectors
+    mutable VectorX x, f, res, d, t, rr;  // V-cycle work vectors (x, f: the coarse levels' own)
   };
   bool coarsen_structure(int l, const Graph& strength);
   void update_values(const ConstraintFilter& filter, int threads);  // level 0's blocks already copied
+  void update_fine_values(const ConstraintFilter& filter, int threads);
+  void filter_fine_level(const ConstraintFilter& filter, int threads);  // S A S + I - S in place, B_i = S_i
+  template <class Scalar>
+  void copy_fine_blocks(const BcrsMatrix<Scalar>& a, int threads);
   void update_level_values(int l, int threads);
   void finish_level(int l, int threads);  // copies level l's operator values into its kernel
   double estimate_spectral_radius(const Level& level, int threads, int steps) const;
   void smooth(const Level& level, const VectorX& f, VectorX& x, bool zero_start, int threads) const;
-  void cycle(int l, int threads) const;
+  // x = V-cycle of level l applied to f (the fine level's f and x are the caller's vectors).
+  void cycle(int l, const VectorX& f, VectorX& x, int threads) const;
 
   MultigridOptions options_;
   std::vector<Level> levels_;
@@ -130,12 +141,23 @@ SmoothedAggregation SmoothedAggregation::from_pattern(const BcrsMatrix<Scalar>& 
 }
 
 template <class Scalar>
-void SmoothedAggregation::update(const BcrsMatrix<Scalar>& a, const ConstraintFilter& filter, int threads) {
+void SmoothedAggregation::copy_fine_blocks(const BcrsMatrix<Scalar>& a, int threads) {
   std::vector<Mat3f>& blocks = levels_[0].a.value;
 #pragma omp parallel for schedule(static) num_threads(threads)
   for (std::int64_t k = 0; k < static_cast<std::int64_t>(blocks.size()); ++k)
     blocks[k] = Eigen::Map<const Eigen::Matrix<Scalar, 3, 3>>(a.block(static_cast<int>(k))).template cast<float>();
+}
+
+template <class Scalar>
+void SmoothedAggregation::update(const BcrsMatrix<Scalar>& a, const ConstraintFilter& filter, int threads) {
+  copy_fine_blocks(a, threads);
   update_values(filter, threads);
+}
+
+template <class Scalar>
+void SmoothedAggregation::update_fine(const BcrsMatrix<Scalar>& a, const ConstraintFilter& filter, int threads) {
+  copy_fine_blocks(a, threads);
+  update_fine_values(filter, threads);
 }
 
 }  // namespace weft

@@ -151,7 +151,8 @@ PcgStats prefiltered_pcg(const ApplyMatrix& apply_matrix, const std::vector<Mat3
   // Caller's preconditioner: z = S B S r; returns r . z (fixed order).
   auto precondition_dot = [&]() {
     if constexpr (custom) {
-      tmp = r;
+#pragma omp parallel for schedule(static) num_threads(threads)
+      for (Eigen::Index k = 0; k < n; ++k) tmp[k] = r[k];
       apply_filter(tmp);
       precondition(tmp, z);
       apply_filter(z);
