@@ -300,17 +300,22 @@ TEST(Multigrid, ReusesTheHierarchyWithinAFrameAndRefreshesWhenDue) {
   solve_at(fast, folded(0.7), kStep, filter);
   EXPECT_EQ(refreshes(), 2) << "too many iterations with reused values";
 
+  const double rho = fast.multigrid()->spectral_radius(0);
   solve_at(fast, folded(0.7), kStep / 2, filter);
   EXPECT_EQ(refreshes(), 3) << "a new step size";
+  const double rho_half_step = fast.multigrid()->spectral_radius(0);
+  EXPECT_NE(rho_half_step, rho) << "a new step size: the smoothers' bounds estimated again";
   ConstraintFilter contact = filter;
   contact.constrain_direction(nx * (ny / 4) + nx / 2, Vec3(0.0, 1.0, 0.0), 0.0);
   solve_at(fast, folded(0.7), kStep / 2, contact);
   EXPECT_EQ(refreshes(), 4) << "a new filter";
+  EXPECT_EQ(fast.multigrid()->spectral_radius(0), rho_half_step) << "a new filter: the bounds kept";
   solve_at(fast, folded(0.7), kStep / 2, contact);
   EXPECT_EQ(refreshes(), 4);
   fast.start_frame();
   solve_at(fast, folded(0.7), kStep / 2, contact);
   EXPECT_EQ(refreshes(), 5) << "a new frame";
+  EXPECT_NE(fast.multigrid()->spectral_radius(0), rho_half_step) << "a new frame: the bounds of the new filter";
 }
 
 TEST(Multigrid, AReusedHierarchyThatFailsToConvergeIsRefreshedAndTheSolveResumed) {

@@ -231,8 +231,9 @@ PcgStats FastLinearSystem<Scalar>::solve_with(const ConstraintFilter& filter, Ve
     auto cycle = [this, threads](const VectorX& r, VectorX& z) { multigrid_->apply(r, z, threads); };
     stats = prefiltered_pcg(apply, diagonal_, permuted_filter_, rhs_, permuted_dv_, pcg, threads, cycle);
     double setup_seconds = setup;
-    if (!stats.converged && !multigrid_refreshed_) {
-      // Reused values that no longer fit: once more from where CG stopped, with fresh ones.
+    if (!stats.converged && !multigrid_all_fresh_) {
+      // Reused values (or bounds) that no longer fit: once more from where CG stopped, with
+      // everything fresh.
       const int reused_iterations = stats.iterations;
       multigrid_stale_ = true;
       if (prepare_multigrid(threads)) {
@@ -275,6 +276,7 @@ bool FastLinearSystem<Scalar>::prepare_multigrid(int threads) {
     timer.restart();
   }
   multigrid_refreshed_ = multigrid_refresh_due();
+  multigrid_all_fresh_ = multigrid_refreshed_ && multigrid_stale_;
   multigrid_last_setup_seconds_ = 0.0;
   if (!multigrid_refreshed_) {
     ++multigrid_age_;
@@ -284,7 +286,9 @@ bool FastLinearSystem<Scalar>::prepare_multigrid(int threads) {
     return true;
   }
   try {
-    multigrid_->update(matrix_, permuted_filter_, threads);
+    // Within a frame and at the same step size the smoothers' spectral radii are kept: a
+    // refresh for a new contact filter skips its Lanczos steps (a fifth of the setup).
+    multigrid_->update(matrix_, permuted_filter_, threads, !multigrid_stale_);
   } catch (const std::runtime_error&) {  // coarsest level not SPD (a broken matrix)
     multigrid_stale_ = true;
     return false;
@@ -304,7 +308,8 @@ bool FastLinearSystem<Scalar>::prepare_multigrid(int threads) {
 // those of a recent substep's matrix precondition this one nearly as well at no setup cost
 // (the setup is worth about 5 CG iterations; docs/multigrid.md, "Reuse"). The finest level's
 // operator is always the current one (the smoother needs it); the rest is recomputed at the
-// first solve of every frame (so a resumed run repeats the original bit for bit), when the
+// first solve of every frame (so a resumed run repeats the original bit for bit; the
+// smoothers' spectral radii only then and at a new step size), when the
 // step size or the constraint filter changed (a new contact set cost a drape 60% more
 // iterations), after kMultigridMaxAge reuses, when the last solve needed
 // clearly more iterations than the one right after the last refresh, and - in solve_with -

@@ -86,6 +86,7 @@ class FastLinearSystem final : public LinearSystemPath {
   // Reuse of the hierarchy's values from solve to solve (multigrid_refresh_due).
   bool multigrid_stale_ = true;       // a new frame, a new step size or a failed solve
   bool multigrid_refreshed_ = false;  // the last prepare_multigrid recomputed the values
+  bool multigrid_all_fresh_ = false;  // ... and the smoothers' bounds too
   int multigrid_age_ = 0;             // solves since the values were computed
   int multigrid_fresh_iterations_ = 0, multigrid_last_iterations_ = 0;
   long long multigrid_refreshes_ = 0;

@@ -330,11 +330,12 @@ void SmoothedAggregation::update_blocks(const std::vector<Mat3>& fine_blocks, co
   update_values(filter, threads);
 }
 
-void SmoothedAggregation::update_values(const ConstraintFilter& filter, int threads) {
+void SmoothedAggregation::update_values(const ConstraintFilter& filter, int threads, bool keep_bounds) {
   filter_fine_level(filter, threads);
   finish_level(0, threads);
+  keep_bounds = keep_bounds && bounds_estimated_;
   for (int l = 0; l + 1 < levels(); ++l) {
-    update_level_values(l, threads);
+    update_level_values(l, threads, keep_bounds);
     finish_level(l + 1, threads);
   }
   const BlockRowsF& last = levels_.back().a;
@@ -344,6 +345,7 @@ void SmoothedAggregation::update_values(const ConstraintFilter& filter, int thre
       dense.block<3, 3>(3 * i, 3 * last.column[k]) = last.value[k].cast<double>();
   coarse_solver_.compute(dense);
   if (coarse_solver_.info() != Eigen::Success) throw std::runtime_error("multigrid: coarsest matrix not positive definite");
+  bounds_estimated_ = true;
 }
 
 void SmoothedAggregation::update_fine_values(const ConstraintFilter& filter, int threads) {
@@ -393,14 +395,14 @@ void SmoothedAggregation::finish_level(int l, int threads) {
     level.inverse_diagonal[i] = level.a.value[level.diagonal[i]].cast<double>().inverse();
 }
 
-void SmoothedAggregation::update_level_values(int l, int threads) {
+void SmoothedAggregation::update_level_values(int l, int threads, bool keep_bounds) {
   Level& level = levels_[l];
   Level& next = levels_[l + 1];
   const BlockRowsF& a = level.a;
   const int n = a.rows, nc = next.a.rows;
   const int th = level_threads(n, threads);
 
-  level.rho = estimate_spectral_radius(level, th, options_.lanczos_steps);
+  if (!keep_bounds) level.rho = estimate_spectral_radius(level, th, options_.lanczos_steps);
   // Tentative prolongator: T_i = B_i G_J^(-1/2) on the range of G_J; next level's B_J = G_J^(1/2).
   const int thc = level_threads(nc, threads);
 #pragma omp parallel for schedule(static) num_threads(thc) if (thc > 1)

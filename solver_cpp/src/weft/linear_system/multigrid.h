@@ -75,8 +75,10 @@ class SmoothedAggregation {
                                           const MultigridOptions& options = {});
 
   // Values of every level for the fixed part of `a` filtered by `filter` (row order).
+  // keep_bounds: the smoothers' spectral radii of the last update() stay (no Lanczos), for a
+  // matrix of the same step size a substep later.
   template <class Scalar>
-  void update(const BcrsMatrix<Scalar>& a, const ConstraintFilter& filter, int threads);
+  void update(const BcrsMatrix<Scalar>& a, const ConstraintFilter& filter, int threads, bool keep_bounds = false);
   // Only the finest level's operator (and smoother diagonal) for a new `a` and `filter`; the
   // coarse levels, prolongators and smoother bounds stay those of the last update().
   template <class Scalar>
@@ -111,12 +113,12 @@ class SmoothedAggregation {
     mutable VectorX x, f, res, d, t, rr;  // V-cycle work vectors (x, f: the coarse levels' own)
   };
   bool coarsen_structure(int l, const Graph& strength);
-  void update_values(const ConstraintFilter& filter, int threads);  // level 0's blocks already copied
+  void update_values(const ConstraintFilter& filter, int threads, bool keep_bounds = false);  // level 0's blocks copied
   void update_fine_values(const ConstraintFilter& filter, int threads);
   void filter_fine_level(const ConstraintFilter& filter, int threads);  // S A S + I - S in place, B_i = S_i
   template <class Scalar>
   void copy_fine_blocks(const BcrsMatrix<Scalar>& a, int threads);
-  void update_level_values(int l, int threads);
+  void update_level_values(int l, int threads, bool keep_bounds);
   void finish_level(int l, int threads);  // copies level l's operator values into its kernel
   double estimate_spectral_radius(const Level& level, int threads, int steps) const;
   void smooth(const Level& level, const VectorX& f, VectorX& x, bool zero_start, int threads) const;
@@ -125,6 +127,7 @@ class SmoothedAggregation {
 
   MultigridOptions options_;
   std::vector<Level> levels_;
+  bool bounds_estimated_ = false;  // every level's rho comes from a Lanczos estimate
   Eigen::LLT<Eigen::MatrixXd> coarse_solver_;
 };
 
@@ -149,9 +152,10 @@ void SmoothedAggregation::copy_fine_blocks(const BcrsMatrix<Scalar>& a, int thre
 }
 
 template <class Scalar>
-void SmoothedAggregation::update(const BcrsMatrix<Scalar>& a, const ConstraintFilter& filter, int threads) {
+void SmoothedAggregation::update(const BcrsMatrix<Scalar>& a, const ConstraintFilter& filter, int threads,
+                                 bool keep_bounds) {
   copy_fine_blocks(a, threads);
-  update_values(filter, threads);
+  update_values(filter, threads, keep_bounds);
 }
 
 template <class Scalar>
