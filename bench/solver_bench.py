@@ -15,7 +15,10 @@ The fast path runs twice per size, once per CG preconditioner (block Jacobi, smo
 multigrid; docs/multigrid.md), interleaved with the reference path; the preconditioner table gives
 iterations, multigrid setup, solve and whole-step time and the speed-up of multigrid over block
 Jacobi measured in the same run. `--sizes 16,32,64` runs sheets of those sides instead (one frame
-each), for the small sizes at which `solver.preconditioner: auto` switches.
+each), for the small sizes at which `solver.preconditioner: auto` switches. `--repeat N` times N
+blocks of frames per size on the two fast paths (the reference path only the first) and gives
+multigrid's speed-up per block, its median and range: on a shared machine one block's ratio
+has varied by 30% from the next.
 """
 
 from __future__ import annotations
@@ -23,6 +26,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import statistics
 import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -124,9 +128,12 @@ class PathRun:
         self.steps += substeps
 
 
-def measure_size(scene: Any, size: Size, threads: int) -> tuple[list[PathRecord], PathRecord, Any]:
+def measure_size(scene: Any, size: Size, threads: int, repeat: int = 1) -> tuple[list[PathRecord], PathRecord, Any]:
     """The fast path once per preconditioner and the reference path, their timed frames or steps
-    interleaved so that all see the same machine load."""
+    interleaved so that all see the same machine load. With `repeat` > 1 the two fast paths time
+    that many blocks of frames (the reference path only the first), and the multigrid record
+    keeps each block's solve speed-up over block Jacobi (`solve_speedup_runs`): the spread of
+    one machine's load over the run."""
     from weft import _solver
 
     runs = [PathRun(scene, "fast", threads, p) for p in PRECONDITIONERS] + [PathRun(scene, "reference", threads)]
@@ -136,20 +143,27 @@ def measure_size(scene: Any, size: Size, threads: int) -> tuple[list[PathRecord]
         run.time = h
         info = _solver.linear_system_info(run.sim)
         run.setup_before, run.refreshes_before = info.multigrid_setup_seconds, info.multigrid_refreshes
-    for _ in range(size.frames or size.steps):
-        for run in runs:
-            if size.frames:
-                run.advance(SUBSTEPS * h, SUBSTEPS)
-            else:
-                run.advance(h, 1)
+    speedups = []
+    for block in range(repeat):
+        timed = runs if block == 0 else runs[:-1]
+        solve_before = [run.solve for run in timed]
+        for _ in range(size.frames or size.steps):
+            for run in timed:
+                if size.frames:
+                    run.advance(SUBSTEPS * h, SUBSTEPS)
+                else:
+                    run.advance(h, 1)
+        block_jacobi, multigrid = (run.solve - before for run, before in zip(timed[:2], solve_before))
+        speedups.append(block_jacobi / multigrid)
     records = []
     for run in runs:
         frames = run.steps / SUBSTEPS
-        overhead_per_frame = run.overhead / (size.frames or size.steps)
+        overhead_per_frame = run.overhead / (run.steps / (SUBSTEPS if size.frames else 1))
         build, solve = run.build / frames, run.solve / frames
         total = build + solve + overhead_per_frame
-        measured = f"{size.frames} frame{'s' if size.frames > 1 else ''}" if size.frames else \
-            f"{size.steps} of {SUBSTEPS} steps, scaled"
+        blocks = repeat if run.path == "fast" else 1
+        measured = f"{blocks * size.frames} frame{'s' if blocks * size.frames > 1 else ''}" if size.frames else \
+            f"{blocks * size.steps} of {SUBSTEPS} steps, scaled"
         info = _solver.linear_system_info(run.sim)
         records.append(PathRecord(
             scene=size.name, vertices=scene.vertex_count, path=run.label,
@@ -166,6 +180,7 @@ def measure_size(scene: Any, size: Size, threads: int) -> tuple[list[PathRecord]
                 "multigrid_structure_seconds": info.multigrid_structure_seconds,
                 "multigrid_rows": list(info.multigrid_rows),
                 "multigrid_operator_complexity": info.multigrid_operator_complexity,
+                "solve_speedup_runs": speedups,
             }
     fast_sim = runs[0].sim
     del runs
@@ -197,7 +212,7 @@ def fast_extras(sim: Any, threads: int, tolerance: float) -> dict[str, Any]:
 
 
 def run_bench(threads: int = 2, quick: bool = False, log: Callable[[str], None] = print,
-              sides: list[int] | None = None) -> dict[str, Any]:
+              sides: list[int] | None = None, repeat: int = 1) -> dict[str, Any]:
     from weft import _solver
     from weft.shot import parse_shot
     from weft.solver_setup import resolve_scene
@@ -212,7 +227,7 @@ def run_bench(threads: int = 2, quick: bool = False, log: Callable[[str], None] 
         document = sheet_document(size.side)
         scene = resolve_scene(parse_shot(document), Path.cwd())
         del document
-        (fast, multigrid), reference, sim = measure_size(scene, size, threads)
+        (fast, multigrid), reference, sim = measure_size(scene, size, threads, repeat)
         fast.extra = fast_extras(sim, threads, 1e-5)
         del sim
         log(f"{size.name}: fast {fast.sim_s_per_frame:.3f} s/frame (multigrid {multigrid.sim_s_per_frame:.3f}), "
@@ -230,6 +245,7 @@ def run_bench(threads: int = 2, quick: bool = False, log: Callable[[str], None] 
         records += [fast, multigrid, reference]
     return {
         "threads": threads,
+        "repeat": repeat,
         "substeps_per_frame": SUBSTEPS,
         "fps": FPS,
         "spacing_m": SPACING,
@@ -247,6 +263,16 @@ def growth_exponent(xs: list[float], ys: list[float]) -> float:
     lx, ly = [math.log(x) for x in xs], [math.log(y) for y in ys]
     mx, my = sum(lx) / len(lx), sum(ly) / len(ly)
     return sum((a - mx) * (b - my) for a, b in zip(lx, ly)) / sum((a - mx) ** 2 for a in lx)
+
+
+def speedup_text(extra: dict[str, Any]) -> str:
+    """Multigrid's solve speed-up over block Jacobi: over all timed frames, and with repeated
+    blocks the median and range of the blocks' own ratios."""
+    text = f"{extra['solve_speedup_over_block_jacobi']:.2f}"
+    runs = extra.get("solve_speedup_runs", [])
+    if len(runs) > 1:
+        text += f" (median {statistics.median(runs):.2f}, {min(runs):.2f}-{max(runs):.2f})"
+    return text
 
 
 def format_tables(result: dict[str, Any]) -> str:
@@ -288,7 +314,8 @@ def format_tables(result: dict[str, Any]) -> str:
             f"{b['solve_s_per_frame']:.3f} | {b['sim_s_per_frame']:.3f} | | | | |")
         lines.append(
             f"| | | multigrid | {m['cg_iterations_per_step']:.1f} | {e['multigrid_setup_s_per_frame']:.3f} "
-            f"| {e.get('multigrid_refreshes_per_step', float('nan')):.2f} | {m['solve_s_per_frame']:.3f} | {m['sim_s_per_frame']:.3f} | {e['solve_speedup_over_block_jacobi']:.2f} "
+            f"| {e.get('multigrid_refreshes_per_step', float('nan')):.2f} | {m['solve_s_per_frame']:.3f} "
+            f"| {m['sim_s_per_frame']:.3f} | {speedup_text(e)} "
             f"| {e['sim_speedup_over_block_jacobi']:.2f} | {' / '.join(str(r) for r in e['multigrid_rows'])} "
             f"| {e['multigrid_operator_complexity']:.2f} |")
     lines += [
@@ -337,8 +364,8 @@ def format_tables(result: dict[str, Any]) -> str:
 
 
 def main(threads: int = 2, json_path: Path | None = None, quick: bool = False,
-         sides: list[int] | None = None) -> dict[str, Any]:
-    result = run_bench(threads=threads, quick=quick, sides=sides)
+         sides: list[int] | None = None, repeat: int = 1) -> dict[str, Any]:
+    result = run_bench(threads=threads, quick=quick, sides=sides, repeat=repeat)
     print(format_tables(result))
     if json_path is not None:
         json_path.write_text(json.dumps(result, indent=2))

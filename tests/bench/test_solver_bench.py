@@ -1,5 +1,6 @@
 """`weft bench ...`: the solver bench's table formatter, the commands' wiring to the `bench`
-package (the solver bench itself takes minutes), and a small CCD bench run end to end."""
+package (the solver bench itself takes minutes; one 256-vertex sheet runs end to end), and a small CCD
+bench run end to end."""
 
 from __future__ import annotations
 
@@ -8,7 +9,7 @@ from pathlib import Path
 
 from typer.testing import CliRunner
 
-from bench.solver_bench import format_tables, growth_exponent
+from bench.solver_bench import format_tables, growth_exponent, run_bench
 from weft.cli import app
 
 
@@ -53,10 +54,12 @@ def test_bench_solver_command_passes_its_options_to_the_bench(monkeypatch, tmp_p
     monkeypatch.setattr(bench.solver_bench, "main", lambda **kwargs: calls.append(kwargs))
     result = CliRunner().invoke(app, ["bench", "solver", "--threads", "3", "--json", str(tmp_path / "b.json"), "--quick"])
     assert result.exit_code == 0, result.output
-    assert calls == [{"threads": 3, "json_path": tmp_path / "b.json", "quick": True, "sides": None}]
-    result = CliRunner().invoke(app, ["bench", "solver", "--sizes", "16,32"])
+    assert calls == [{"threads": 3, "json_path": tmp_path / "b.json", "quick": True, "sides": None, "repeat": 1}]
+    result = CliRunner().invoke(app, ["bench", "solver", "--sizes", "16,32", "--repeat", "3"])
     assert result.exit_code == 0, result.output
-    assert calls[-1]["sides"] == [16, 32]
+    assert calls[-1]["sides"] == [16, 32] and calls[-1]["repeat"] == 3
+    result = CliRunner().invoke(app, ["bench", "solver", "--repeat", "0"])
+    assert result.exit_code == 2 and "--repeat" in result.output
 
 
 def test_bench_ccd_runs_with_zero_false_negatives() -> None:
@@ -68,3 +71,16 @@ def test_bench_ccd_runs_with_zero_false_negatives() -> None:
         assert q["queries"] == 1000 and q["hits_true"] > 0 and q["false_negatives"] == 0
     (twist,) = figures["twist"]
     assert twist["vertices"] == 36 and twist["frames"] == 2 and twist["max_intersections"] == 0
+
+
+def test_repeated_blocks_give_one_speedup_each() -> None:
+    result = run_bench(threads=1, sides=[16], repeat=2, log=lambda _: None)
+    fast, multigrid, reference = result["records"]
+    assert result["repeat"] == 2
+    assert (fast["measured"], multigrid["measured"], reference["measured"]) == ("2 frames", "2 frames", "1 frame")
+    runs = multigrid["extra"]["solve_speedup_runs"]
+    assert len(runs) == 2 and all(r > 0.0 for r in runs)
+    # Each block timed its own frame: the runs' ratios bracket the ratio over both frames.
+    assert min(runs) <= multigrid["extra"]["solve_speedup_over_block_jacobi"] <= max(runs)
+    text = format_tables(result)
+    assert f"(median {sum(runs) / 2:.2f}, {min(runs):.2f}-{max(runs):.2f})" in text

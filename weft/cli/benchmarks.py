@@ -21,12 +21,15 @@ def solver(
     json_path: Annotated[Optional[Path], typer.Option("--json", help="Also write every figure as JSON here")] = None,
     quick: Annotated[bool, typer.Option("--quick", help="Two small sheets only (a smoke test)")] = False,
     sizes: Annotated[str, typer.Option("--sizes", help="Sheet sides instead, e.g. 16,32,64 (one frame each)")] = "",
+    repeat: Annotated[int, typer.Option("--repeat", min=1, max=20,
+                                        help="Timed blocks per size for the two fast paths (median and range of "
+                                             "multigrid's speed-up)")] = 1,
 ) -> None:
     """Fast (block Jacobi and multigrid) vs reference linear system on 10k-640k vertex sheets
     (the seed's Table 1 shape)."""
     from bench.solver_bench import main
 
-    main(threads=threads, json_path=json_path, quick=quick, sides=_sizes(sizes) or None)
+    main(threads=threads, json_path=json_path, quick=quick, sides=_sizes(sizes) or None, repeat=repeat)
 
 
 @app.command("ccd")
