@@ -231,20 +231,21 @@ PcgStats FastLinearSystem<Scalar>::solve_with(const ConstraintFilter& filter, Ve
     auto cycle = [this, threads](const VectorX& r, VectorX& z) { multigrid_->apply(r, z, threads); };
     stats = prefiltered_pcg(apply, diagonal_, permuted_filter_, rhs_, permuted_dv_, pcg, threads, cycle);
     double setup_seconds = setup;
+    int reused_iterations = 0;  // of a first attempt with reused values or bounds, if it failed
     if (!stats.converged && !multigrid_all_fresh_) {
       // Reused values (or bounds) that no longer fit: once more from where CG stopped, with
       // everything fresh.
-      const int reused_iterations = stats.iterations;
       multigrid_stale_ = true;
       if (prepare_multigrid(threads)) {
+        reused_iterations = stats.iterations;
         setup_seconds += multigrid_last_setup_seconds_;
         stats = prefiltered_pcg(apply, diagonal_, permuted_filter_, rhs_, permuted_dv_, pcg, threads, cycle);
-        stats.iterations += reused_iterations;
       }
     }
-    stats.preconditioner_setup_seconds = setup_seconds;
     if (multigrid_refreshed_) multigrid_fresh_iterations_ = stats.iterations;
     multigrid_last_iterations_ = stats.iterations;
+    stats.iterations += reused_iterations;
+    stats.preconditioner_setup_seconds = setup_seconds;
   } else {
     stats = prefiltered_pcg(apply, diagonal_, permuted_filter_, rhs_, permuted_dv_, pcg, threads);
   }
