@@ -296,8 +296,8 @@ bool FastLinearSystem<Scalar>::prepare_multigrid(int threads) {
   }
   multigrid_stale_ = false;
   multigrid_age_ = 0;
-  refreshed_filter_.constrained_vertices = permuted_filter_.constrained_vertices;
-  if (permuted_filter_.constrained_vertices > 0) refreshed_filter_.projection = permuted_filter_.projection;
+  refreshed_constrained_ = permuted_filter_.constrained_vertices;
+  if (refreshed_constrained_ > 0) refreshed_projection_ = permuted_filter_.projection;
   ++multigrid_refreshes_;
   multigrid_last_setup_seconds_ = timer.seconds();
   multigrid_setup_seconds_ += multigrid_last_setup_seconds_;
@@ -318,9 +318,8 @@ bool FastLinearSystem<Scalar>::prepare_multigrid(int threads) {
 template <class Scalar>
 bool FastLinearSystem<Scalar>::multigrid_refresh_due() const {
   if (multigrid_stale_ || multigrid_age_ >= kMultigridMaxAge) return true;
-  if (permuted_filter_.constrained_vertices != refreshed_filter_.constrained_vertices) return true;
-  if (permuted_filter_.constrained_vertices > 0 && permuted_filter_.projection != refreshed_filter_.projection)
-    return true;
+  if (permuted_filter_.constrained_vertices != refreshed_constrained_) return true;
+  if (refreshed_constrained_ > 0 && permuted_filter_.projection != refreshed_projection_) return true;
   const int fresh = multigrid_fresh_iterations_;
   return multigrid_last_iterations_ > fresh + std::max(2, fresh / 4);
 }

@@ -23,8 +23,8 @@
 
 namespace weft {
 
-constexpr int kParallelSolveRows = 2048;
-constexpr int kMultigridMaxAge = 7;  // solves that may reuse the hierarchy's values (fast_linear_system.cpp)  // smaller systems solve on one thread (barriers: weft/__init__.py)
+constexpr int kParallelSolveRows = 2048;  // smaller systems solve on one thread (barriers: weft/__init__.py)
+constexpr int kMultigridMaxAge = 7;  // solves that may reuse the hierarchy's values (fast_linear_system.cpp)
 
 template <class Scalar>
 class FastLinearSystem final : public LinearSystemPath {
@@ -90,7 +90,8 @@ class FastLinearSystem final : public LinearSystemPath {
   int multigrid_age_ = 0;             // solves since the values were computed
   int multigrid_fresh_iterations_ = 0, multigrid_last_iterations_ = 0;
   long long multigrid_refreshes_ = 0;
-  ConstraintFilter refreshed_filter_;  // the filter of the last refresh (its projections)
+  int refreshed_constrained_ = 0;              // the filter of the last refresh: constrained vertices
+  std::vector<Mat3> refreshed_projection_;     // and, when there were any, their projections
   double last_h_ = 0.0;
   bool last_multigrid_ = false;
   bool multigrid_unusable_ = false;  // the pattern gave no hierarchy: block Jacobi

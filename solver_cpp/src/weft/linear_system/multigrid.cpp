@@ -236,7 +236,11 @@ SmoothedAggregation::SmoothedAggregation(const std::vector<int>& row_start, cons
     level.kernel.set_pattern(level.a.start, level.a.column);
     level.inverse_diagonal.assign(n, Mat3::Identity());
     level.near_null.assign(n, Mat3::Identity());
-    for (VectorX* v : {&level.x, &level.f, &level.res, &level.d, &level.t, &level.rr}) v->setZero(3 * n);
+    for (VectorX* v : {&level.res, &level.d, &level.t, &level.rr}) v->setZero(3 * n);
+    if (l > 0) {  // the finest level cycles on the caller's vectors
+      level.x.setZero(3 * n);
+      level.f.setZero(3 * n);
+    }
     if (n <= options_.coarse_rows || l + 1 >= options_.max_levels || !coarsen_structure(l, g)) {
       if (n > kMaxCoarsestRows)
         throw std::invalid_argument("multigrid: coarsening stalled at " + std::to_string(n) + " rows");
@@ -331,8 +335,7 @@ void SmoothedAggregation::update_blocks(const std::vector<Mat3>& fine_blocks, co
 }
 
 void SmoothedAggregation::update_values(const ConstraintFilter& filter, int threads, bool keep_bounds) {
-  filter_fine_level(filter, threads);
-  finish_level(0, threads);
+  update_fine_values(filter, threads);
   keep_bounds = keep_bounds && bounds_estimated_;
   for (int l = 0; l + 1 < levels(); ++l) {
     update_level_values(l, threads, keep_bounds);

@@ -21,8 +21,8 @@
 //
 // Structure (aggregates, patterns of P, A P, P^T, A_c) is built once from the fixed block
 // pattern; values (filter, rho, T, P, A_c, Cholesky) are recomputed by update(), or only the
-// finest level's operator by update_fine() (the owner decides when: fast_linear_system.cpp). Only the fixed pattern enters
-// the hierarchy: transient blocks outside it (contact springs) are left to CG's own product,
+// finest level's operator by update_fine() (the owner decides when: fast_linear_system.cpp).
+// Only the fixed pattern enters the hierarchy: transient blocks outside it (contact springs) are left to CG's own product,
 // which keeps the preconditioner SPD (a spring minus its off-diagonal blocks is still PSD).
 // Every row is computed by one thread in a fixed order and every dot product is an ordered sum
 // (ordered_sum.h): bitwise identical for any thread count.
@@ -110,7 +110,8 @@ class SmoothedAggregation {
     std::vector<Mat3> tentative;       // T_i (row i's block of T, column aggregate[i])
     std::vector<Mat3> kept;            // Q_J of the coarse nodes (range of G_J)
     double rho = 1.0;
-    mutable VectorX x, f, res, d, t, rr;  // V-cycle work vectors (x, f: the coarse levels' own)
+    mutable VectorX x, f, res, d, t, rr;  // V-cycle work vectors (x, f: coarse levels only; the
+                                          // finest level's are the caller's)
   };
   bool coarsen_structure(int l, const Graph& strength);
   void update_values(const ConstraintFilter& filter, int threads, bool keep_bounds = false);  // level 0's blocks copied
