@@ -3,6 +3,7 @@ weft and, with `--peer blender`, by Blender cloth in the same run (same scene, s
 same thread count), one table row per (scene, solver), metrics from `bench.contact_metrics`.
 
     python -m bench.contact [--json PATH] [--peer blender] [--scenes a,b] [--frames N] [--threads 2] [--repeat N]
+                            [--perturb N]
 
 s/frame is the wall time of each simulated frame (weft: `Simulation.advance_frame`; Blender:
 `scene.frame_set`), mean and max over the frames after the initial one (the setup, building
@@ -13,7 +14,11 @@ and the table shows the range of the per-repeat ratios (on a shared 2-core machi
 ratio has varied by 20% from the next), and weft's repeats must agree bit for bit
 (`repeats_identical`). weft's step breakdown (build, solve,
 collision and GIA seconds per frame, CG iterations per substep, CCD candidates, proximity
-pairs, impact zones, unresolved collisions) comes from its per-frame telemetry.
+pairs, impact zones, unresolved collisions) comes from its per-frame telemetry. With
+`--perturb N` weft also runs N copies of each scene with the cloth thickness perturbed by a few
+per cent, and a third table reports the issue's per-frame targets over all of them
+(`bench/contact_robustness.py`): one run of a chaotic contact scene shows neither a failure's
+frequency nor a fix.
 """
 
 from __future__ import annotations
@@ -51,9 +56,11 @@ DEFAULT_FRAMES = {
 }
 
 
-def build_scene(name: str, directory: Path, frames: int, features: dict[str, Any] | None = None) -> Any:
+def build_scene(name: str, directory: Path, frames: int, features: dict[str, Any] | None = None,
+                thickness_scale: float = 1.0) -> Any:
     """The resolved weft scene of a named contact scene, at least `frames` long when the builder
-    takes a frame count; `features` overrides switches of the shot's `features`."""
+    takes a frame count; `features` overrides switches of the shot's `features`;
+    `thickness_scale` scales every cloth piece's thickness (`--perturb`)."""
     from scenes.contact import SCENES
     from weft.shot import parse_shot
     from weft.solver_setup import resolve_scene
@@ -63,6 +70,10 @@ def build_scene(name: str, directory: Path, frames: int, features: dict[str, Any
     shot = make(directory, **kwargs)
     if features:
         shot["features"] = {**shot.get("features", {}), **features}
+    if thickness_scale != 1.0:
+        from bench.contact_robustness import scale_thickness
+
+        scale_thickness(shot, thickness_scale)
     return resolve_scene(parse_shot(shot), directory)
 
 
@@ -278,6 +289,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--repeat", type=int, default=1,
                         help="run each scene this many times (weft and the peer alternating which goes first); "
                              "s/frame is the median of the runs' means, the ratio's range is shown")
+    parser.add_argument("--perturb", type=int, default=0, metavar="N",
+                        help="also run weft on N copies of each scene with the cloth thickness scaled by 0.93-1.07: "
+                             "worst frame, frames with intersections, halvings and strain over all copies")
     parser.add_argument("--self-cost", action="store_true",
                         help="also run weft with self-collision off: the cost of self-collision per scene")
     args = parser.parse_args(argv)
@@ -287,6 +301,8 @@ def main(argv: list[str] | None = None) -> int:
         parser.error(f"unknown scene(s) {unknown}; choose from {list(DEFAULT_FRAMES)}")
     if args.repeat < 1:
         parser.error("--repeat must be at least 1")
+    if args.perturb < 0:
+        parser.error("--perturb must be 0 (off) or a positive number of copies")
     if args.frames is not None and args.frames < 2:
         parser.error("--frames must be at least 2 (the initial state and one simulated frame)")
     if args.peer == "blender":
@@ -309,12 +325,24 @@ def main(argv: list[str] | None = None) -> int:
         console.print(f"[dim]{name} ...[/dim]")
         rows.extend(run_scene(name, args.frames, args.threads, args.peer, args.blender_mass, args.self_cost,
                               args.repeat))
+    perturbed: list[dict[str, Any]] = []
+    if args.perturb:
+        from bench.contact_robustness import perturbed_row
+
+        for name in names:
+            console.print(f"[dim]{name}: {args.perturb} perturbed copies ...[/dim]")
+            perturbed.append(perturbed_row(name, args.frames or DEFAULT_FRAMES[name], args.threads, args.perturb))
     for table in format_tables(rows):
         console.print(table)
+    if perturbed:
+        from bench.contact_robustness import format_table
+
+        console.print(format_table(perturbed, args.perturb))
     if args.json:
         args.json.parent.mkdir(parents=True, exist_ok=True)
         report = {"threads": args.threads, "peer": args.peer, "repeat": args.repeat, "blender_mass": args.blender_mass, "cpus": os.cpu_count(), "machine": platform.platform(),
-                  "load_average_before": load_before, "load_average_after": os.getloadavg(), "rows": rows}
+                  "load_average_before": load_before, "load_average_after": os.getloadavg(), "rows": rows,
+                  "perturb": args.perturb, "perturbed": perturbed}
         args.json.write_text(json.dumps(report, indent=1, default=float))
         console.print(f"wrote {args.json}")
     return 0

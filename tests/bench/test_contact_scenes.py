@@ -144,3 +144,68 @@ def test_repeat_must_be_positive() -> None:
     with pytest.raises(SystemExit) as exc:
         main(["--repeat", "0", "--scenes", "sleeve_swing"])
     assert exc.value.code == 2
+
+
+def test_thickness_factors_are_spread_evenly_and_never_one() -> None:
+    from bench.contact_robustness import SPREAD, thickness_factors
+
+    for count in (1, 2, 3, 6):
+        factors = thickness_factors(count)
+        assert len(factors) == count
+        assert all(1.0 - SPREAD <= f <= 1.0 + SPREAD and f != 1.0 for f in factors)
+        assert factors == sorted(factors)
+    assert thickness_factors(1) == pytest.approx([1.0 - SPREAD])
+    assert thickness_factors(2) == pytest.approx([1.0 - SPREAD, 1.0 + SPREAD])
+    assert thickness_factors(3) == pytest.approx([1.0 - SPREAD, 1.0 - SPREAD / 2, 1.0 + SPREAD])
+    with pytest.raises(ValueError, match="at least 1"):
+        thickness_factors(0)
+
+
+def test_scale_thickness_scales_set_and_default_thicknesses(tmp_path: Path) -> None:
+    from api_schemas.shot import Material
+    from bench.contact_robustness import scale_thickness
+
+    shot = {"cloth": [{"material": {"thickness": 0.004}}, {"material": {}}, {}]}
+    scale_thickness(shot, 1.05)
+    default = Material.model_fields["thickness"].default
+    assert [p["material"]["thickness"] for p in shot["cloth"]] == pytest.approx([0.0042, 1.05 * default, 1.05 * default])
+    plain = build_scene("sleeve_swing", tmp_path / "a", 2)
+    scaled = build_scene("sleeve_swing", tmp_path / "b", 2, thickness_scale=0.95)
+    assert scaled.shot.cloth[0].material.thickness == pytest.approx(0.95 * plain.shot.cloth[0].material.thickness)
+
+
+def test_perturbed_copies_are_summarised_over_every_copy() -> None:
+    from bench.contact_robustness import perturbed_row, thickness_factors
+
+    row = perturbed_row("sleeve_swing", 3, 1, 2)
+    copies = row["copies"]
+    assert [c["thickness_factor"] for c in copies] == thickness_factors(2)
+    assert all(c["s_per_frame_mean"] > 0 and c["worst_over_median_frame"] >= 1.0 for c in copies)
+    assert row["worst_over_median_frame"] == max(c["worst_over_median_frame"] for c in copies)
+    assert row["frames_with_intersections"] == sum(c["frames_with_intersections"] for c in copies)
+    assert row["max_strain"] == max(c["max_strain"] for c in copies) >= 1.0
+    lo, hi = row["s_per_frame_range"]
+    assert lo <= row["s_per_frame_median"] <= hi
+
+
+def test_summary_counts_frames_ending_with_intersections() -> None:
+    from bench.contact_robustness import copy_summary
+
+    class Row:
+        subdivided_substeps = 1
+
+    run = {"frame_seconds": [0.1, 0.1, 0.5], "telemetry": [Row(), Row(), Row()], "failure": None}
+    metrics = {"per_frame": {"inside": [0, 0, 3, 0], "cloth_body_pairs": [0, 0, 2, 1]}, "inside_max": 3,
+               "max_strain": 1.2, "nan": False}
+    summary = copy_summary(1.02, run, metrics)
+    assert summary["frames_with_intersections"] == 2  # frame 2 (inside) and 3 (a pair), not the initial state
+    assert summary["worst_over_median_frame"] == pytest.approx(5.0)
+    assert summary["halved_substeps"] == 3
+
+
+def test_perturb_must_not_be_negative() -> None:
+    from bench.contact import main
+
+    with pytest.raises(SystemExit) as exc:
+        main(["--perturb", "-1", "--scenes", "sleeve_swing"])
+    assert exc.value.code == 2
