@@ -16,8 +16,8 @@ ratio has varied by 20% from the next), and weft's repeats must agree bit for bi
 collision and GIA seconds per frame, CG iterations per substep, CCD candidates, proximity
 pairs, impact zones, unresolved collisions) comes from its per-frame telemetry. With
 `--perturb N` weft also runs N copies of each scene with the cloth thickness perturbed by a few
-per cent, and a third table reports the issue's per-frame targets over all of them
-(`bench/contact_robustness.py`): one run of a chaotic contact scene shows neither a failure's
+per cent (`run_perturbed`), and a third table reports the issue's per-frame targets over all of
+them (`bench/contact_robustness.py`): one run of a chaotic contact scene shows neither a failure's
 frequency nor a fix.
 """
 
@@ -217,6 +217,20 @@ def run_scene(name: str, frames: int | None, threads: int, peer: str | None,
         return rows
 
 
+def run_perturbed(name: str, frames: int, threads: int, count: int) -> dict[str, Any]:
+    """weft on `count` thickness-perturbed copies of scene `name` (`--perturb`), summarised by
+    `bench.contact_robustness`."""
+    from bench.contact_robustness import copy_summary, summarise, thickness_factors
+
+    copies = []
+    for factor in thickness_factors(count):
+        with tempfile.TemporaryDirectory(prefix=f"weft-perturbed-{name}-") as tmp:
+            scene = build_scene(name, Path(tmp), frames, thickness_scale=factor)
+            run = run_weft(scene, min(frames, scene.frame_count), threads)
+            copies.append(copy_summary(factor, run, measure(scene, "weft", run, threads)))
+    return summarise(name, copies)
+
+
 def _fmt(value: Any, spec: str, scale: float = 1.0) -> str:
     return "-" if value is None else format(value * scale, spec)
 
@@ -327,11 +341,9 @@ def main(argv: list[str] | None = None) -> int:
                               args.repeat))
     perturbed: list[dict[str, Any]] = []
     if args.perturb:
-        from bench.contact_robustness import perturbed_row
-
         for name in names:
             console.print(f"[dim]{name}: {args.perturb} perturbed copies ...[/dim]")
-            perturbed.append(perturbed_row(name, args.frames or DEFAULT_FRAMES[name], args.threads, args.perturb))
+            perturbed.append(run_perturbed(name, args.frames or DEFAULT_FRAMES[name], args.threads, args.perturb))
     for table in format_tables(rows):
         console.print(table)
     if perturbed:

@@ -16,11 +16,13 @@ targets ask of every frame, over all the copies:
   stopped run in any copy.
 
     python -m bench.contact --scenes articulated_dress --perturb 6
+
+The runs themselves are `bench.contact.run_perturbed`; this module holds the perturbation and the
+summary (it imports nothing of `bench.contact`).
 """
 
 from __future__ import annotations
 
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -66,22 +68,6 @@ def copy_summary(factor: float, run: dict[str, Any], metrics: dict[str, Any]) ->
         "nan": metrics["nan"],
         "failure": run["failure"],
     }
-
-
-def perturbed_row(name: str, frames: int, threads: int, count: int) -> dict[str, Any]:
-    """Runs weft on `count` thickness-perturbed copies of scene `name` and summarises them."""
-    import tempfile
-
-    from bench.contact import build_scene, measure, run_weft
-
-    copies = []
-    for factor in thickness_factors(count):
-        with tempfile.TemporaryDirectory(prefix=f"weft-perturbed-{name}-") as tmp:
-            scene = build_scene(name, Path(tmp), frames, thickness_scale=factor)
-            wanted = min(frames, scene.frame_count)
-            run = run_weft(scene, wanted, threads)
-            copies.append(copy_summary(factor, run, measure(scene, "weft", run, threads)))
-    return summarise(name, copies)
 
 
 def summarise(name: str, copies: list[dict[str, Any]]) -> dict[str, Any]:

@@ -175,9 +175,10 @@ def test_scale_thickness_scales_set_and_default_thicknesses(tmp_path: Path) -> N
 
 
 def test_perturbed_copies_are_summarised_over_every_copy() -> None:
-    from bench.contact_robustness import perturbed_row, thickness_factors
+    from bench.contact import run_perturbed
+    from bench.contact_robustness import thickness_factors
 
-    row = perturbed_row("sleeve_swing", 3, 1, 2)
+    row = run_perturbed("sleeve_swing", 3, 1, 2)
     copies = row["copies"]
     assert [c["thickness_factor"] for c in copies] == thickness_factors(2)
     assert all(c["s_per_frame_mean"] > 0 and c["worst_over_median_frame"] >= 1.0 for c in copies)
