@@ -54,8 +54,9 @@ def scale_thickness(shot: dict[str, Any], factor: float) -> None:
 def copy_summary(factor: float, run: dict[str, Any], metrics: dict[str, Any]) -> dict[str, Any]:
     """What one perturbed copy contributes: its timing, its frames with intersections, strain."""
     seconds = np.asarray(run["frame_seconds"], dtype=np.float64)
-    inside = [v for v in metrics["per_frame"]["inside"][1:]]
-    pairs = [v for v in metrics["per_frame"]["cloth_body_pairs"][1:]]
+    # Frame ends after the initial state; a non-finite frame (None) counts as failing.
+    inside = metrics["per_frame"]["inside"][1:]
+    pairs = metrics["per_frame"]["cloth_body_pairs"][1:]
     dirty = sum(1 for a, b in zip(inside, pairs) if a is None or b is None or a > 0 or b > 0)
     return {
         "thickness_factor": factor,
@@ -71,6 +72,7 @@ def copy_summary(factor: float, run: dict[str, Any], metrics: dict[str, Any]) ->
 
 
 def summarise(name: str, copies: list[dict[str, Any]]) -> dict[str, Any]:
+    """A scene's row of the copies table: medians, sums and extremes over its copies' summaries."""
     means = [c["s_per_frame_mean"] for c in copies if c["s_per_frame_mean"] is not None]
     worst = [c["worst_over_median_frame"] for c in copies if c["worst_over_median_frame"] is not None]
     strains = [c["max_strain"] for c in copies if c["max_strain"] is not None]
