@@ -123,6 +123,29 @@ TEST(ContactDetection, SharedVerticesAndEdgesAreNotPaired) {
   EXPECT_EQ(std::count_if(pairs.begin(), pairs.end(), [](const FeaturePair& p) { return p.edge_edge; }), 2);
 }
 
+// A 10 x 10 cloth grid (1 cm) parallel to a 7 x 7 body grid (1.5 cm) tilted 45 degrees (so
+// that boxes are fat), each cloth vertex `height(i, j)` above it along the normal.
+struct ClothOverTiltedGrid {
+  static constexpr int n = 10, m = 7;
+  Faces cloth_faces = testing::grid_faces(n), body_faces = testing::grid_faces(m);
+  Positions x{n * n, 3}, body_x{m * m, 3};
+  template <class Height>
+  explicit ClothOverTiltedGrid(Height&& height) {
+    const Vec3 normal = Vec3(-1.0, 0.0, 1.0).normalized(), along = Vec3(1.0, 0.0, 1.0).normalized();
+    for (int i = 0; i < m; ++i)
+      for (int j = 0; j < m; ++j) body_x.row(i * m + j) = (0.015 * i * along + Vec3(0.0, 0.015 * j, 0.0)).transpose();
+    for (int i = 0; i < n; ++i)
+      for (int j = 0; j < n; ++j)
+        x.row(i * n + j) = (0.01 * i * along + Vec3(0.0, 0.01 * j, 0.0) + height(i, j) * normal).transpose();
+  }
+  int face_count() const { return static_cast<int>(cloth_faces.rows()); }
+  // Every cloth face collides, none with itself, margins `gap`.
+  ContactDetection detection(double gap) const {
+    return ContactDetection(cloth_faces, x, std::vector<char>(face_count(), 1), std::vector<char>(face_count(), 0),
+                            std::vector<double>(face_count(), gap), {KinematicBody(body_faces, body_x)}, {1});
+  }
+};
+
 // A cloth grid parallel to a body grid tilted 45 degrees (so that boxes are fat), 1.5 gaps
 // above it along the normal, with one corner of each cell pushed down to half a gap: the
 // proximity list holds every feature pair within the gap, and the planes keep out most of the
@@ -130,22 +153,11 @@ TEST(ContactDetection, SharedVerticesAndEdgesAreNotPaired) {
 // of 1,191 that pass the boxes, 380 within the gap; 853 without the per-feature plane test.
 TEST(ContactDetection, TheProximityListHoldsEveryPairWithinTheGapAndFewOthers) {
   const double gap = 0.003;
-  const int n = 10, m = 7;
-  const Vec3 normal = Vec3(-1.0, 0.0, 1.0).normalized(), along = Vec3(1.0, 0.0, 1.0).normalized();
-  const Faces cloth_faces = testing::grid_faces(n), body_faces = testing::grid_faces(m);
-  Positions x(n * n, 3), body_x(m * m, 3);
-  for (int i = 0; i < m; ++i)
-    for (int j = 0; j < m; ++j) body_x.row(i * m + j) = (0.015 * i * along + Vec3(0.0, 0.015 * j, 0.0)).transpose();
-  for (int i = 0; i < n; ++i)
-    for (int j = 0; j < n; ++j) {
-      const int k = i * n + j;
-      const double height = i % 2 == 0 && j % 2 == 0 ? 0.5 * gap : 1.5 * gap;
-      x.row(k) = (0.01 * i * along + Vec3(0.0, 0.01 * j, 0.0) + height * normal).transpose();
-    }
-  const std::vector<KinematicBody> bodies = {KinematicBody(body_faces, body_x)};
-  const int face_count = static_cast<int>(cloth_faces.rows());
-  ContactDetection detection(cloth_faces, x, std::vector<char>(face_count, 1), std::vector<char>(face_count, 0),
-                             std::vector<double>(face_count, gap), bodies, {1});
+  const ClothOverTiltedGrid g([&](int i, int j) { return i % 2 == 0 && j % 2 == 0 ? 0.5 * gap : 1.5 * gap; });
+  const int n = g.n, face_count = g.face_count();
+  const Faces& body_faces = g.body_faces;
+  const Positions &x = g.x, &body_x = g.body_x;
+  ContactDetection detection = g.detection(gap);
   CollisionStep step;
   Positions v = Positions::Zero(n * n, 3);
   step.begin(x, v, 0.01);
@@ -178,6 +190,68 @@ TEST(ContactDetection, TheProximityListHoldsEveryPairWithinTheGapAndFewOthers) {
   for (const auto& p : within) EXPECT_TRUE(listed.count(p)) << p[0] << " " << p[1] << " " << p[2] << " " << p[3];
   for (const auto& p : listed) EXPECT_TRUE(boxed.count(p));
   EXPECT_LT(listed.size() * 5, boxed.size() * 3) << listed.size() << " of " << boxed.size();
+}
+
+// Against a body the contact constraints found smooth (CollisionStep::vertex_proximity_bodies),
+// the proximity list is found vertex by vertex: every cloth vertex/body face and body
+// corner/cloth face pair within the gap, as the triangle pairs' expansion lists them, and no
+// edge pair.
+// No GIA at work: what the collision system's filter says in a clean state.
+struct SkipNothing : ContactFilter {
+  bool skips_nothing(int) const override { return true; }
+};
+
+TEST(ContactDetection, ASmoothBodysProximityPairsAreItsVertexPairsWithinTheGap) {
+  const double gap = 0.003;
+  const ClothOverTiltedGrid g([&](int i, int j) { return (i + j) % 3 == 0 ? 0.4 * gap : 1.6 * gap; });
+  const int n = g.n;
+  const Positions &x = g.x, &body_x = g.body_x;
+  auto collect = [&](const std::vector<char>* vertex_bodies, int threads) {
+    ContactDetection detection = g.detection(gap);
+    detection.set_threads(threads);
+    CollisionStep step;
+    Positions v = Positions::Zero(n * n, 3);
+    step.begin(x, v, 0.01);
+    step.body_start = {body_x};
+    step.body_end = {body_x};
+    step.vertex_proximity_bodies = vertex_bodies;
+    CollisionTelemetry frame;
+    detection.collect(step, SkipNothing(), frame, false);
+    return step.proximity_pairs;
+  };
+  const std::vector<char> smooth = {1};
+  const std::vector<FeaturePair> full = collect(nullptr, 1), by_vertex = collect(&smooth, 1);
+  auto within = [&](const FeaturePair& p) {
+    std::array<Vec3, 4> s;
+    for (int i = 0; i < 4; ++i) s[i] = p.point[i] >= 0 ? Vec3(row3(x, p.point[i])) : Vec3(row3(body_x, -1 - p.point[i]));
+    std::array<double, 4> w;
+    return pair_weights(s, p.edge_edge, w) < gap;
+  };
+  std::set<std::array<int, 4>> listed, wanted;
+  for (const FeaturePair& p : by_vertex) {
+    EXPECT_FALSE(p.edge_edge);
+    EXPECT_EQ(p.body, 0);
+    listed.insert(p.point);
+  }
+  EXPECT_EQ(listed.size(), by_vertex.size()) << "a pair listed twice";
+  int body_corners = 0;
+  for (const FeaturePair& p : full)
+    if (!p.edge_edge && within(p)) {
+      wanted.insert(p.point);
+      body_corners += p.point[0] < 0;
+    }
+  ASSERT_GT(wanted.size(), 50u);
+  ASSERT_GT(body_corners, 5);
+  for (const auto& p : wanted) EXPECT_TRUE(listed.count(p)) << p[0] << " " << p[1] << " " << p[2] << " " << p[3];
+  // Few pairs beyond the gap, far fewer than the triangle pairs' expansion lists.
+  int beyond = 0;
+  for (const FeaturePair& p : by_vertex) beyond += !within(p);
+  EXPECT_LT(beyond, static_cast<int>(wanted.size()));
+  EXPECT_LT(by_vertex.size() * 2, full.size());
+  // The same list, in the same order, on two threads.
+  const std::vector<FeaturePair> two_threads = collect(&smooth, 2);
+  ASSERT_EQ(two_threads.size(), by_vertex.size());
+  for (size_t k = 0; k < by_vertex.size(); ++k) EXPECT_EQ(two_threads[k].point, by_vertex[k].point);
 }
 
 // An n x n grid in the xz plane (spacing 1 cm) folded about x = 5.5 cm so that its far half

@@ -47,6 +47,11 @@ struct CollisionStep {
   std::vector<FeaturePair> pairs;            // CCD candidates of the current pass (ContactDetection::collect)
   std::vector<FeaturePair> proximity_pairs;  // proximity candidates of the step (likewise)
   std::vector<char> changed;  // cloth vertices whose velocity changed since the last CCD pass
+  // Per body, for the proximity pairs of this step: 1 where vertex/face pairs (cloth vertices
+  // with body faces, body corners with cloth faces) are all that is needed, no edge/edge pairs
+  // (a smooth body whose contacts the solve held; ContactConstraints::smooth_bodies). Null:
+  // every body gets all three kinds.
+  const std::vector<char>* vertex_proximity_bodies = nullptr;
   int ccd_iteration = 0;      // CCD impulse pass within the step
 
   void begin(const Positions& x0, Positions& v0, double step) {

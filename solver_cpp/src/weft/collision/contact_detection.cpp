@@ -357,12 +357,22 @@ void ContactDetection::collect(CollisionStep& step, const ContactFilter& filter,
   body_candidates_.resize(body_count);
   candidate_start_.assign(body_count + 1, 0);
   body_plain_.assign(body_count, 1);
+  vertex_bodies_.clear();
   for (size_t b = 0; b < body_count; ++b) {
     candidate_start_[b + 1] = candidate_start_[b];
     if (!bodies_[b].collide) continue;
     const Positions& body_start = step.body_start[b];
     const Positions& body_end = swept ? step.body_end[b] : body_start;
     body_candidates_[b].clear();
+    // Cloth vertex/body face pairs only (CollisionStep::vertex_proximity_bodies), found vertex
+    // by vertex below, where no GIA membrane or pinch asks about single features.
+    if (!swept && step.vertex_proximity_bodies != nullptr && (*step.vertex_proximity_bodies)[b] &&
+        filter.skips_nothing(static_cast<int>(b))) {
+      refit_body(static_cast<int>(b), body_start, body_start);
+      fit_body_planes(static_cast<int>(b), body_start, body_start);
+      vertex_bodies_.push_back(static_cast<int>(b));
+      continue;
+    }
     body_pairs(static_cast<int>(b), body_start, body_end, body_candidates_[b]);
     fit_body_planes(static_cast<int>(b), body_start, body_end);
     body_plain_[b] = filter.skips_nothing(static_cast<int>(b));
@@ -388,9 +398,55 @@ void ContactDetection::collect(CollisionStep& step, const ContactFilter& filter,
                    if (!body_plain_[b] && filter.pinched_face(cf, body))  // cloth in a body/body pinch: no CCD
                      for (size_t j = first; j < out.size(); ++j) out[j].ccd = false;
                  });
+  if (!vertex_bodies_.empty()) vertex_face_pairs(x, step.body_start, pairs);
   swept_cloth_current_ = swept;
   frame.broad_phase_pairs += static_cast<int>(pairs.size());
   frame.broad_phase_seconds += timer.seconds();
+}
+
+void ContactDetection::vertex_face_pairs(const Positions& x, const std::vector<Positions>& body_x,
+                                         std::vector<FeaturePair>& pairs) {
+  // Each cloth vertex once (from the face that owns it), each of vertex_bodies_ in order: the
+  // body faces whose boxes come within the face's margin of it and whose plane does not keep
+  // it farther (the plane test of collect, for a point).
+  const auto face_count = static_cast<std::int64_t>(cloth_faces_.rows());
+  ordered_append(face_count, kExpandChunk, threads_, pairs, chunk_pairs_, [&](std::int64_t cf, std::vector<FeaturePair>& out) {
+    if (!face_collide_[cf]) return;
+    const double gap = face_margin_[cf];
+    const double limit = gap * (1.0 + kPlaneSlack);
+    for (int v : cloth_own_.face_vertices[cf]) {
+      const Vec3 p = row3(x, v);
+      Aabb box;
+      box.lo = p - Vec3::Constant(gap);
+      box.hi = p + Vec3::Constant(gap);
+      for (int body : vertex_bodies_) {
+        const Body& b = bodies_[body];
+        b.tree.query(box, [&](int bf) {
+          const Vec3& n = b.planes.normal[bf];
+          if (n != Vec3::Zero() && std::abs(n.dot(p - b.planes.origin[bf])) > limit) return;
+          out.push_back({{v, -1 - b.faces(bf, 0), -1 - b.faces(bf, 1), -1 - b.faces(bf, 2)}, body, false});
+        });
+      }
+    }
+  });
+  // Each body corner (of vertex_bodies_, in order) with the cloth faces whose boxes (grown by
+  // their margin) hold it and whose plane does not keep it farther than that margin.
+  for (int body : vertex_bodies_) {
+    const Body& b = bodies_[body];
+    const Positions& bx = body_x[body];
+    ordered_append(b.vertex_count, kExpandChunk, threads_, pairs, chunk_pairs_, [&](std::int64_t k, std::vector<FeaturePair>& out) {
+      const Vec3 q = row3(bx, static_cast<int>(k));
+      Aabb point;
+      point.lo = point.hi = q;
+      cloth_tree_.query(point, [&](int cf) {
+        if (!face_collide_[cf]) return;
+        const Vec3& n = cloth_planes_.normal[cf];
+        if (n != Vec3::Zero() && std::abs(n.dot(q - cloth_planes_.origin[cf])) > face_margin_[cf] * (1.0 + kPlaneSlack))
+          return;
+        out.push_back({{-1 - static_cast<int>(k), cloth_faces_(cf, 0), cloth_faces_(cf, 1), cloth_faces_(cf, 2)}, body, false});
+      });
+    });
+  }
 }
 
 void ContactDetection::collect_changed(CollisionStep& step, const ContactFilter& filter, CollisionTelemetry& frame) {
