@@ -186,9 +186,9 @@ void CollisionSystem::respond(const Positions& x, Positions& v, double h, const 
     gia_bodies_->clear();
     untangle_.clear();
   }
-  step_.sharp_edges = constraints_.sharp_edges();
+  step_.vertex_proximity_bodies = constraints_.smooth_bodies();
   detection_.collect(step_, *filter_, frame_, false);
-  step_.sharp_edges = nullptr;
+  step_.vertex_proximity_bodies = nullptr;
   ProximityResponse().apply(step_, props_, frame_, threads_);
   if (strain_limit_.enabled()) {
     const Timer timer;

@@ -9,7 +9,6 @@
 #include "support/grid_faces.h"
 #include "weft/collision/contact_detection.h"
 #include "weft/collision/contact_impulse.h"
-#include "weft/collision/sharp_edges.h"
 
 namespace weft {
 namespace {
@@ -193,21 +192,21 @@ TEST(ContactDetection, TheProximityListHoldsEveryPairWithinTheGapAndFewOthers) {
   EXPECT_LT(listed.size() * 5, boxed.size() * 3) << listed.size() << " of " << boxed.size();
 }
 
-// When the contact constraints ran (CollisionStep::sharp_edges), the proximity list is found
-// point by point: every cloth vertex/body face and body corner/cloth face pair within the gap
-// that the triangle pairs' expansion lists, and the edge/edge pairs within it whose body edge
-// is sharp (here the body grid's border, a knife edge), no others.
+// Against a body the contact constraints found smooth (CollisionStep::vertex_proximity_bodies),
+// the proximity list is found vertex by vertex: every cloth vertex/body face and body
+// corner/cloth face pair within the gap, as the triangle pairs' expansion lists them, and no
+// edge pair.
 // No GIA at work: what the collision system's filter says in a clean state.
 struct SkipNothing : ContactFilter {
   bool skips_nothing(int) const override { return true; }
 };
 
-TEST(ContactDetection, ProximityPairsFoundPointByPointAreThoseWithinTheGapBarBluntEdges) {
+TEST(ContactDetection, ASmoothBodysProximityPairsAreItsVertexPairsWithinTheGap) {
   const double gap = 0.003;
   const ClothOverTiltedGrid g([&](int i, int j) { return (i + j) % 3 == 0 ? 0.4 * gap : 1.6 * gap; });
   const int n = g.n;
   const Positions &x = g.x, &body_x = g.body_x;
-  auto collect = [&](const std::vector<SharpEdges>* sharp_edges, int threads) {
+  auto collect = [&](const std::vector<char>* vertex_bodies, int threads) {
     ContactDetection detection = g.detection(gap);
     detection.set_threads(threads);
     CollisionStep step;
@@ -215,53 +214,44 @@ TEST(ContactDetection, ProximityPairsFoundPointByPointAreThoseWithinTheGapBarBlu
     step.begin(x, v, 0.01);
     step.body_start = {body_x};
     step.body_end = {body_x};
-    step.sharp_edges = sharp_edges;
+    step.vertex_proximity_bodies = vertex_bodies;
     CollisionTelemetry frame;
     detection.collect(step, SkipNothing(), frame, false);
     return step.proximity_pairs;
   };
-  std::vector<SharpEdges> sharp = {SharpEdges(g.body_faces)};
-  ASSERT_EQ(sharp[0].update(g.body_faces, body_x, 0.015, gap), 4 * (g.m - 1));  // the border
-  std::set<std::array<int, 2>> sharp_edges;
-  for (int k = 0; k < sharp[0].size(); ++k) sharp_edges.insert(sharp[0].edge(k));
-  const std::vector<FeaturePair> full = collect(nullptr, 1), by_point = collect(&sharp, 1);
+  const std::vector<char> smooth = {1};
+  const std::vector<FeaturePair> full = collect(nullptr, 1), by_vertex = collect(&smooth, 1);
   auto within = [&](const FeaturePair& p) {
     std::array<Vec3, 4> s;
     for (int i = 0; i < 4; ++i) s[i] = p.point[i] >= 0 ? Vec3(row3(x, p.point[i])) : Vec3(row3(body_x, -1 - p.point[i]));
     std::array<double, 4> w;
     return pair_weights(s, p.edge_edge, w) < gap;
   };
-  auto sharp_pair = [&](const FeaturePair& p) {
-    const int a = -1 - p.point[2], b = -1 - p.point[3];
-    return sharp_edges.count({std::min(a, b), std::max(a, b)}) > 0;
-  };
   std::set<std::array<int, 4>> listed, wanted;
-  for (const FeaturePair& p : by_point) {
-    EXPECT_TRUE(!p.edge_edge || sharp_pair(p)) << "an edge pair with a blunt body edge";
+  for (const FeaturePair& p : by_vertex) {
+    EXPECT_FALSE(p.edge_edge);
     EXPECT_EQ(p.body, 0);
     listed.insert(p.point);
   }
-  EXPECT_EQ(listed.size(), by_point.size()) << "a pair listed twice";
-  int body_corners = 0, edge_pairs = 0;
+  EXPECT_EQ(listed.size(), by_vertex.size()) << "a pair listed twice";
+  int body_corners = 0;
   for (const FeaturePair& p : full)
-    if (within(p) && (!p.edge_edge || sharp_pair(p))) {
+    if (!p.edge_edge && within(p)) {
       wanted.insert(p.point);
-      body_corners += !p.edge_edge && p.point[0] < 0;
-      edge_pairs += p.edge_edge;
+      body_corners += p.point[0] < 0;
     }
   ASSERT_GT(wanted.size(), 50u);
   ASSERT_GT(body_corners, 5);
-  ASSERT_GT(edge_pairs, 5);
   for (const auto& p : wanted) EXPECT_TRUE(listed.count(p)) << p[0] << " " << p[1] << " " << p[2] << " " << p[3];
   // Few pairs beyond the gap, far fewer than the triangle pairs' expansion lists.
   int beyond = 0;
-  for (const FeaturePair& p : by_point) beyond += !within(p);
+  for (const FeaturePair& p : by_vertex) beyond += !within(p);
   EXPECT_LT(beyond, static_cast<int>(wanted.size()));
-  EXPECT_LT(by_point.size() * 2, full.size());
+  EXPECT_LT(by_vertex.size() * 2, full.size());
   // The same list, in the same order, on two threads.
-  const std::vector<FeaturePair> two_threads = collect(&sharp, 2);
-  ASSERT_EQ(two_threads.size(), by_point.size());
-  for (size_t k = 0; k < by_point.size(); ++k) EXPECT_EQ(two_threads[k].point, by_point[k].point);
+  const std::vector<FeaturePair> two_threads = collect(&smooth, 2);
+  ASSERT_EQ(two_threads.size(), by_vertex.size());
+  for (size_t k = 0; k < by_vertex.size(); ++k) EXPECT_EQ(two_threads[k].point, by_vertex[k].point);
 }
 
 // An n x n grid in the xz plane (spacing 1 cm) folded about x = 5.5 cm so that its far half

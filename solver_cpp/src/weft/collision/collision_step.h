@@ -8,7 +8,6 @@
 #include <vector>
 
 #include "weft/collision/collision_types.h"
-#include "weft/collision/sharp_edges.h"
 #include "weft/common/types.h"
 
 namespace weft {
@@ -48,12 +47,11 @@ struct CollisionStep {
   std::vector<FeaturePair> pairs;            // CCD candidates of the current pass (ContactDetection::collect)
   std::vector<FeaturePair> proximity_pairs;  // proximity candidates of the step (likewise)
   std::vector<char> changed;  // cloth vertices whose velocity changed since the last CCD pass
-  // For the proximity pairs of this step, per body: its edges sharp enough to reach a cloth
-  // edge between two cloth vertices kept off the body (sharp_edges.h), as the contact
-  // constraints found them this step; the list is then built point by point (vertex/face pairs
-  // both ways, edge/edge pairs with these edges only; ContactDetection::collect). Null: the
-  // constraints did not run, the triangle traversal lists every pair.
-  const std::vector<SharpEdges>* sharp_edges = nullptr;
+  // Per body, for the proximity pairs of this step: 1 where vertex/face pairs (cloth vertices
+  // with body faces, body corners with cloth faces) are all that is needed, no edge/edge pairs
+  // (a smooth body whose contacts the solve held; ContactConstraints::smooth_bodies). Null:
+  // every body gets all three kinds.
+  const std::vector<char>* vertex_proximity_bodies = nullptr;
   int ccd_iteration = 0;      // CCD impulse pass within the step
 
   void begin(const Positions& x0, Positions& v0, double step) {

@@ -364,9 +364,10 @@ void ContactDetection::collect(CollisionStep& step, const ContactFilter& filter,
     const Positions& body_start = step.body_start[b];
     const Positions& body_end = swept ? step.body_end[b] : body_start;
     body_candidates_[b].clear();
-    // The proximity pairs point by point (CollisionStep::sharp_edges; point_pairs below), where
-    // no GIA membrane or pinch asks about single features.
-    if (!swept && step.sharp_edges != nullptr && filter.skips_nothing(static_cast<int>(b))) {
+    // Cloth vertex/body face pairs only (CollisionStep::vertex_proximity_bodies), found vertex
+    // by vertex below, where no GIA membrane or pinch asks about single features.
+    if (!swept && step.vertex_proximity_bodies != nullptr && (*step.vertex_proximity_bodies)[b] &&
+        filter.skips_nothing(static_cast<int>(b))) {
       refit_body(static_cast<int>(b), body_start, body_start);
       fit_body_planes(static_cast<int>(b), body_start, body_start);
       vertex_bodies_.push_back(static_cast<int>(b));
@@ -397,14 +398,14 @@ void ContactDetection::collect(CollisionStep& step, const ContactFilter& filter,
                    if (!body_plain_[b] && filter.pinched_face(cf, body))  // cloth in a body/body pinch: no CCD
                      for (size_t j = first; j < out.size(); ++j) out[j].ccd = false;
                  });
-  if (!vertex_bodies_.empty()) point_pairs(x, step.body_start, *step.sharp_edges, pairs);
+  if (!vertex_bodies_.empty()) vertex_face_pairs(x, step.body_start, pairs);
   swept_cloth_current_ = swept;
   frame.broad_phase_pairs += static_cast<int>(pairs.size());
   frame.broad_phase_seconds += timer.seconds();
 }
 
-void ContactDetection::point_pairs(const Positions& x, const std::vector<Positions>& body_x,
-                                   const std::vector<SharpEdges>& sharp_edges, std::vector<FeaturePair>& pairs) {
+void ContactDetection::vertex_face_pairs(const Positions& x, const std::vector<Positions>& body_x,
+                                         std::vector<FeaturePair>& pairs) {
   // Each cloth vertex once (from the face that owns it), each of vertex_bodies_ in order: the
   // body faces whose boxes come within the face's margin of it and whose plane does not keep
   // it farther (the plane test of collect, for a point).
@@ -445,30 +446,6 @@ void ContactDetection::point_pairs(const Positions& x, const std::vector<Positio
         out.push_back({{-1 - static_cast<int>(k), cloth_faces_(cf, 0), cloth_faces_(cf, 1), cloth_faces_(cf, 2)}, body, false});
       });
     });
-  }
-  // Each sharp body edge (of vertex_bodies_, in order) with the cloth edges whose boxes, grown
-  // by their face's margin, overlap its box (each cloth edge from the face that owns it).
-  for (int body : vertex_bodies_) {
-    const SharpEdges& sharp = sharp_edges[body];
-    if (sharp.empty()) continue;
-    const Positions& bx = body_x[body];
-    ordered_append(sharp.size(), kExpandChunk, threads_, pairs, chunk_pairs_,
-                   [&](std::int64_t leaf, std::vector<FeaturePair>& out) {
-                     const std::array<int, 2>& be = sharp.edge(static_cast<int>(leaf));
-                     Aabb edge;
-                     edge.lo = edge.hi = row3(bx, be[0]);
-                     edge.expand(row3(bx, be[1]));
-                     cloth_tree_.query(edge, [&](int cf) {
-                       if (!face_collide_[cf]) return;
-                       for (const auto& ce : cloth_own_.face_edges[cf]) {
-                         Aabb near;
-                         near.lo = near.hi = row3(x, ce[0]);
-                         near.expand(row3(x, ce[1]));
-                         near.inflate(face_margin_[cf]);
-                         if (near.overlaps(edge)) out.push_back({{ce[0], ce[1], -1 - be[0], -1 - be[1]}, body, true});
-                       }
-                     });
-                   });
   }
 }
 

@@ -158,11 +158,9 @@ class ContactDetection {
 
  private:
   // The proximity pairs against vertex_bodies_ (collect()), appended to pairs: every collidable
-  // cloth vertex at x with the body faces within its face's margin, every body corner at body_x
-  // with the cloth faces within theirs, and every sharp body edge with the cloth edges within
-  // theirs.
-  void point_pairs(const Positions& x, const std::vector<Positions>& body_x, const std::vector<SharpEdges>& sharp_edges,
-                   std::vector<FeaturePair>& pairs);
+  // cloth vertex at x with the body faces within its face's margin, then every body corner at
+  // body_x with the cloth faces within theirs; no edge/edge pairs.
+  void vertex_face_pairs(const Positions& x, const std::vector<Positions>& body_x, std::vector<FeaturePair>& pairs);
   // Body::planes over start..end, unless those of the last call (Body::planes_at).
   void fit_body_planes(int body, const Positions& start, const Positions& end);
 

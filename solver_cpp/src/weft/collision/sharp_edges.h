@@ -27,7 +27,6 @@ class SharpEdges {
   // The sharp edges at body positions x, and a tree over their boxes. Returns their count.
   int update(const Faces& faces, const Positions& x, double longest_cloth_edge, double smallest_separation);
   bool empty() const { return sharp_.empty(); }
-  int size() const { return static_cast<int>(sharp_.size()); }  // sharp edges (the tree's leaves)
   const AabbTree& tree() const { return tree_; }
   // Leaf k of the tree: the k-th sharp edge's vertices, and its sharpness |n0 - n1| (2 on a border).
   const std::array<int, 2>& edge(int leaf) const { return edges_[sharp_[leaf]]; }
