@@ -77,9 +77,9 @@ int ImpactZones::resolve(CollisionStep& step, const ContactProperties& props, st
       moment[r] += (vp - ref_sum[r] / ref_count[r]) * d.transpose();
     });
     // The references' widest velocity spread about their mean, per zone: the affine field is
-    // not extrapolated beyond it (a zone caught between two bodies moving apart, an arm closing
-    // on the torso, has references millimetres apart with different velocities; their fit's
-    // gradient, carried across centimetres of cloth, tore single edges to 9x their rest length).
+    // not extrapolated beyond it (a zone caught between two bodies that move differently, an arm
+    // closing on the torso, has references millimetres apart with different velocities; their
+    // fit's gradient, carried across centimetres of cloth, tore an edge to 9x its rest length).
     std::vector<double> reach(vertex_count, 0.0);
     for_each_reference([&](int r, const Vec3&, const Vec3& vp) {
       reach[r] = std::max(reach[r], (vp - ref_sum[r] / ref_count[r]).norm());
