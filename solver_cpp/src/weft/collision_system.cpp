@@ -186,9 +186,9 @@ void CollisionSystem::respond(const Positions& x, Positions& v, double h, const 
     gia_bodies_->clear();
     untangle_.clear();
   }
-  step_.vertex_proximity_bodies = constraints_.smooth_bodies();
+  step_.sharp_edges = constraints_.sharp_edges();
   detection_.collect(step_, *filter_, frame_, false);
-  step_.vertex_proximity_bodies = nullptr;
+  step_.sharp_edges = nullptr;
   ProximityResponse().apply(step_, props_, frame_, threads_);
   if (strain_limit_.enabled()) {
     const Timer timer;

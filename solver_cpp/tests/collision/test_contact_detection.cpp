@@ -9,6 +9,7 @@
 #include "support/grid_faces.h"
 #include "weft/collision/contact_detection.h"
 #include "weft/collision/contact_impulse.h"
+#include "weft/collision/sharp_edges.h"
 
 namespace weft {
 namespace {
@@ -192,21 +193,22 @@ TEST(ContactDetection, TheProximityListHoldsEveryPairWithinTheGapAndFewOthers) {
   EXPECT_LT(listed.size() * 5, boxed.size() * 3) << listed.size() << " of " << boxed.size();
 }
 
-// Against a body the contact constraints found smooth (CollisionStep::vertex_proximity_bodies),
-// the proximity list is found vertex by vertex: every cloth vertex/body face and body
-// corner/cloth face pair within the gap, as the triangle pairs' expansion lists them, and no
-// edge pair.
 // No GIA at work: what the collision system's filter says in a clean state.
 struct SkipNothing : ContactFilter {
   bool skips_nothing(int) const override { return true; }
 };
+
+// Against a body the contact constraints found without sharp edges (CollisionStep::sharp_edges),
+// the proximity list is found point by point: every cloth vertex/body face and body
+// corner/cloth face pair within the gap, as the triangle pairs' expansion lists them, and no
+// edge pair. A body with sharp edges keeps the expansion's list.
 
 TEST(ContactDetection, ASmoothBodysProximityPairsAreItsVertexPairsWithinTheGap) {
   const double gap = 0.003;
   const ClothOverTiltedGrid g([&](int i, int j) { return (i + j) % 3 == 0 ? 0.4 * gap : 1.6 * gap; });
   const int n = g.n;
   const Positions &x = g.x, &body_x = g.body_x;
-  auto collect = [&](const std::vector<char>* vertex_bodies, int threads) {
+  auto collect = [&](const std::vector<SharpEdges>* sharp_edges, int threads) {
     ContactDetection detection = g.detection(gap);
     detection.set_threads(threads);
     CollisionStep step;
@@ -214,13 +216,19 @@ TEST(ContactDetection, ASmoothBodysProximityPairsAreItsVertexPairsWithinTheGap) 
     step.begin(x, v, 0.01);
     step.body_start = {body_x};
     step.body_end = {body_x};
-    step.vertex_proximity_bodies = vertex_bodies;
+    step.sharp_edges = sharp_edges;
     CollisionTelemetry frame;
     detection.collect(step, SkipNothing(), frame, false);
     return step.proximity_pairs;
   };
-  const std::vector<char> smooth = {1};
+  // Not updated: no sharp edge listed, as for a smooth closed body. Updated: the grid's border
+  // is a knife edge.
+  std::vector<SharpEdges> smooth = {SharpEdges(g.body_faces)}, sharp = smooth;
+  ASSERT_GT(sharp[0].update(g.body_faces, body_x, 0.015, gap), 0);
   const std::vector<FeaturePair> full = collect(nullptr, 1), by_vertex = collect(&smooth, 1);
+  const std::vector<FeaturePair> with_sharp_edges = collect(&sharp, 1);
+  ASSERT_EQ(with_sharp_edges.size(), full.size());
+  for (size_t k = 0; k < full.size(); ++k) EXPECT_EQ(with_sharp_edges[k].point, full[k].point);
   auto within = [&](const FeaturePair& p) {
     std::array<Vec3, 4> s;
     for (int i = 0; i < 4; ++i) s[i] = p.point[i] >= 0 ? Vec3(row3(x, p.point[i])) : Vec3(row3(body_x, -1 - p.point[i]));

@@ -168,14 +168,11 @@ std::vector<ContactConstraints::EdgeNear> ContactConstraints::edge_contacts(cons
   // The bodies with sharp edges, each with the box their edges can reach cloth within.
   std::vector<int> sharp_bodies;
   std::vector<Aabb> reach;
-  smooth_.assign(detection.bodies().size(), 0);
   for (size_t bi = 0; bi < detection.bodies().size(); ++bi) {
     if (!detection.bodies()[bi].collide) continue;
     const double offset = props.body_offset.empty() ? 0.0 : props.body_offset[bi];
-    if (sharp_[bi].update(detection.bodies()[bi].faces, step.body_start[bi], longest_edge, thinnest_ + offset) == 0) {
-      smooth_[bi] = 1;
+    if (sharp_[bi].update(detection.bodies()[bi].faces, step.body_start[bi], longest_edge, thinnest_ + offset) == 0)
       continue;
-    }
     sharp_bodies.push_back(static_cast<int>(bi));
     Aabb box = sharp_[bi].tree().bounds();
     box.inflate(kContactBand * (thickest_ + offset));

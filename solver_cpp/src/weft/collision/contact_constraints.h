@@ -55,14 +55,14 @@ class ContactConstraints {
     std::fill(released_.begin(), released_.end(), 0);
   }
   bool empty() const { return contacts_.empty(); }
-  // Per body, after this step's constrain() (null before it, or when it did not run): 1 for a
-  // body with no sharp edges for the cloth (sharp_edges.h). Every free cloth vertex within the
-  // band of such a body had its nearest face looked at and, where it approached, its normal
+  // Per body, after this step's constrain() (null before it, or when it did not run): its
+  // edges sharp for the cloth (sharp_edges.h). Every free cloth vertex within the band of a
+  // body with none had its nearest face looked at and, where it approached, its normal
   // speed set by the solve, and a cloth edge between two vertices kept off it sags at most half
   // a separation towards it (that is what "not sharp" means): against it the proximity list
   // needs no edge/edge pairs, which on a draped sheet are most of them (ContactDetection::
   // collect; CCD still tests every pair).
-  const std::vector<char>* smooth_bodies() const { return looked_ ? &smooth_ : nullptr; }
+  const std::vector<SharpEdges>* sharp_edges() const { return looked_ ? &sharp_ : nullptr; }
 
  private:
   struct Contact {
@@ -90,7 +90,6 @@ class ContactConstraints {
   std::vector<char> released_;  // per cloth vertex: its constraint pulled last step, free this step
   std::vector<char> held_;      // per cloth vertex: constrained last step with a pushing impulse
   std::vector<SharpEdges> sharp_;  // per body
-  std::vector<char> smooth_;       // per body, this step: no sharp edges (edge_contacts)
   bool looked_ = false;            // constrain() ran since the last clear()
   double thinnest_ = 0.0, thickest_ = 0.0;  // cloth vertex thicknesses, for the sharp edges
 };

@@ -364,9 +364,9 @@ void ContactDetection::collect(CollisionStep& step, const ContactFilter& filter,
     const Positions& body_start = step.body_start[b];
     const Positions& body_end = swept ? step.body_end[b] : body_start;
     body_candidates_[b].clear();
-    // Cloth vertex/body face pairs only (CollisionStep::vertex_proximity_bodies), found vertex
-    // by vertex below, where no GIA membrane or pinch asks about single features.
-    if (!swept && step.vertex_proximity_bodies != nullptr && (*step.vertex_proximity_bodies)[b] &&
+    // A body with no sharp edges (CollisionStep::sharp_edges): vertex/face pairs only, found
+    // point by point below, where no GIA membrane or pinch asks about single features.
+    if (!swept && step.sharp_edges != nullptr && (*step.sharp_edges)[b].empty() &&
         filter.skips_nothing(static_cast<int>(b))) {
       refit_body(static_cast<int>(b), body_start, body_start);
       fit_body_planes(static_cast<int>(b), body_start, body_start);
