@@ -198,37 +198,35 @@ struct SkipNothing : ContactFilter {
   bool skips_nothing(int) const override { return true; }
 };
 
-// Against a body the contact constraints found without sharp edges (CollisionStep::sharp_edges),
-// the proximity list is found point by point: every cloth vertex/body face and body
-// corner/cloth face pair within the gap, as the triangle pairs' expansion lists them, and no
-// edge pair. A body with sharp edges keeps the expansion's list.
-
-TEST(ContactDetection, ASmoothBodysProximityPairsAreItsVertexPairsWithinTheGap) {
+// Against a body the contact constraints looked at (CollisionStep::sharp_edges) the proximity
+// list is found point by point: every cloth vertex/body face and body corner/cloth face pair
+// within the gap, as the triangle pairs' expansion lists them, and edge pairs only with the
+// body edges that can reach a cloth edge between two vertices kept off: its sharp edges, and
+// its blunt ones pushing into the cloth by more than half a separation this step.
+TEST(ContactDetection, ProximityPairsPointByPointHaveEdgePairsOnlyWithEdgesThatReach) {
   const double gap = 0.003;
   const ClothOverTiltedGrid g([&](int i, int j) { return (i + j) % 3 == 0 ? 0.4 * gap : 1.6 * gap; });
   const int n = g.n;
   const Positions &x = g.x, &body_x = g.body_x;
-  auto collect = [&](const std::vector<SharpEdges>* sharp_edges, int threads) {
+  auto collect = [&](const std::vector<SharpEdges>* sharp_edges, const Positions& body_end, int threads) {
     ContactDetection detection = g.detection(gap);
     detection.set_threads(threads);
     CollisionStep step;
     Positions v = Positions::Zero(n * n, 3);
     step.begin(x, v, 0.01);
     step.body_start = {body_x};
-    step.body_end = {body_x};
+    step.body_end = {body_end};
     step.sharp_edges = sharp_edges;
     CollisionTelemetry frame;
     detection.collect(step, SkipNothing(), frame, false);
     return step.proximity_pairs;
   };
-  // Not updated: no sharp edge listed, as for a smooth closed body. Updated: the grid's border
-  // is a knife edge.
+  // A smooth body (no sharp edge for these cloth edges, the grid standing in for a closed
+  // body's patch) and a sharp one (the grid's border a knife edge for longer cloth edges).
   std::vector<SharpEdges> smooth = {SharpEdges(g.body_faces)}, sharp = smooth;
+  ASSERT_EQ(smooth[0].update(g.body_faces, body_x, 0.0015, gap), 0);
   ASSERT_GT(sharp[0].update(g.body_faces, body_x, 0.015, gap), 0);
-  const std::vector<FeaturePair> full = collect(nullptr, 1), by_vertex = collect(&smooth, 1);
-  const std::vector<FeaturePair> with_sharp_edges = collect(&sharp, 1);
-  ASSERT_EQ(with_sharp_edges.size(), full.size());
-  for (size_t k = 0; k < full.size(); ++k) EXPECT_EQ(with_sharp_edges[k].point, full[k].point);
+  const std::vector<FeaturePair> full = collect(nullptr, body_x, 1), by_vertex = collect(&smooth, body_x, 1);
   auto within = [&](const FeaturePair& p) {
     std::array<Vec3, 4> s;
     for (int i = 0; i < 4; ++i) s[i] = p.point[i] >= 0 ? Vec3(row3(x, p.point[i])) : Vec3(row3(body_x, -1 - p.point[i]));
@@ -257,9 +255,59 @@ TEST(ContactDetection, ASmoothBodysProximityPairsAreItsVertexPairsWithinTheGap) 
   EXPECT_LT(beyond, static_cast<int>(wanted.size()));
   EXPECT_LT(by_vertex.size() * 2, full.size());
   // The same list, in the same order, on two threads.
-  const std::vector<FeaturePair> two_threads = collect(&smooth, 2);
+  const std::vector<FeaturePair> two_threads = collect(&smooth, body_x, 2);
   ASSERT_EQ(two_threads.size(), by_vertex.size());
   for (size_t k = 0; k < by_vertex.size(); ++k) EXPECT_EQ(two_threads[k].point, by_vertex[k].point);
+
+  // The edge pairs a list adds to the vertex pairs, and those within the gap the expansion has
+  // with the body edges `reach` accepts.
+  // Edge pairs keyed with each edge's ends in increasing order.
+  auto edge_key = [](std::array<int, 4> p) {
+    if (p[0] > p[1]) std::swap(p[0], p[1]);
+    if (p[2] > p[3]) std::swap(p[2], p[3]);
+    return p;
+  };
+  auto edge_pairs = [&](const std::vector<FeaturePair>& pairs) {
+    std::set<std::array<int, 4>> out;
+    for (const FeaturePair& p : pairs)
+      if (p.edge_edge) out.insert(edge_key(p.point));
+      else EXPECT_TRUE(listed.count(p.point));
+    EXPECT_EQ(out.size() + listed.size(), pairs.size());
+    return out;
+  };
+  auto wanted_edge_pairs = [&](auto&& reach) {
+    std::set<std::array<int, 4>> out;
+    for (const FeaturePair& p : full)
+      if (p.edge_edge && within(p) && reach(-1 - p.point[2], -1 - p.point[3])) out.insert(edge_key(p.point));
+    return out;
+  };
+  auto on_border = [&](int a, int b) {
+    auto border = [&](int k) { return k / g.m == 0 || k / g.m == g.m - 1 || k % g.m == 0 || k % g.m == g.m - 1; };
+    return border(a) && border(b) && (a / g.m == b / g.m ? a / g.m == 0 || a / g.m == g.m - 1 : a % g.m == b % g.m && (a % g.m == 0 || a % g.m == g.m - 1));
+  };
+  const std::set<std::array<int, 4>> with_sharp = edge_pairs(collect(&sharp, body_x, 1));
+  const std::set<std::array<int, 4>> border_wanted = wanted_edge_pairs(on_border);
+  ASSERT_GT(border_wanted.size(), 5u);
+  for (const auto& p : border_wanted) EXPECT_TRUE(with_sharp.count(p)) << p[0] << " " << p[1] << " " << p[2] << " " << p[3];
+  for (const auto& p : with_sharp) EXPECT_TRUE(on_border(-1 - p[2], -1 - p[3])) << p[2] << " " << p[3];
+  // The body moving along its faces' normal by 0.6 separations this step: every edge pushes
+  // and gets its edge pairs (found at the step's start); moving the other way, sideways, or by
+  // less than half a separation, none but the sharp ones.
+  const Vec3 a = row3(body_x, g.body_faces(0, 0));
+  const Vec3 normal = (row3(body_x, g.body_faces(0, 1)) - a).cross(row3(body_x, g.body_faces(0, 2)) - a).normalized();
+  auto moved = [&](const Vec3& by) {
+    Positions out = body_x;
+    out.rowwise() += by.transpose();
+    return out;
+  };
+  const std::set<std::array<int, 4>> pushing = edge_pairs(collect(&smooth, moved(0.6 * gap * normal), 1));
+  const std::set<std::array<int, 4>> all_wanted = wanted_edge_pairs([](int, int) { return true; });
+  ASSERT_GT(all_wanted.size(), border_wanted.size());
+  for (const auto& p : all_wanted) EXPECT_TRUE(pushing.count(p)) << p[0] << " " << p[1] << " " << p[2] << " " << p[3];
+  EXPECT_TRUE(edge_pairs(collect(&smooth, moved(-0.6 * gap * normal), 1)).empty());
+  EXPECT_TRUE(edge_pairs(collect(&smooth, moved(0.4 * gap * normal), 1)).empty());
+  EXPECT_TRUE(edge_pairs(collect(&smooth, moved(Vec3(0.0, 5.0 * gap, 0.0)), 1)).empty());
+  EXPECT_EQ(edge_pairs(collect(&sharp, moved(-0.6 * gap * normal), 1)), with_sharp);
 }
 
 // An n x n grid in the xz plane (spacing 1 cm) folded about x = 5.5 cm so that its far half

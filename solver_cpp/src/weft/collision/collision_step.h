@@ -49,9 +49,11 @@ struct CollisionStep {
   std::vector<FeaturePair> proximity_pairs;  // proximity candidates of the step (likewise)
   std::vector<char> changed;  // cloth vertices whose velocity changed since the last CCD pass
   // Per body, for the proximity pairs of this step: its edges sharp for the cloth, as the
-  // contact constraints found them (ContactConstraints::sharp_edges). Against a body with none,
-  // vertex/face pairs (cloth vertices with body faces, body corners with cloth faces) are all
-  // that is needed, no edge/edge pairs. Null: every body gets all three kinds.
+  // contact constraints found them (ContactConstraints::sharp_edges). The list is then found
+  // point by point (cloth vertices with body faces, body corners with cloth faces) with edge/edge
+  // pairs only for the body edges that can reach a cloth edge between vertices kept off: the
+  // sharp ones and the blunt ones pushing into the cloth this step (SharpEdges::advancing).
+  // Null: the triangle traversal lists every pair of all three kinds.
   const std::vector<SharpEdges>* sharp_edges = nullptr;
   int ccd_iteration = 0;      // CCD impulse pass within the step
 

@@ -57,11 +57,12 @@ class ContactConstraints {
   bool empty() const { return contacts_.empty(); }
   // Per body, after this step's constrain() (null before it, or when it did not run): its
   // edges sharp for the cloth (sharp_edges.h). Every free cloth vertex within the band of a
-  // body with none had its nearest face looked at and, where it approached, its normal
-  // speed set by the solve, and a cloth edge between two vertices kept off it sags at most half
-  // a separation towards it (that is what "not sharp" means): against it the proximity list
-  // needs no edge/edge pairs, which on a draped sheet are most of them (ContactDetection::
-  // collect; CCD still tests every pair).
+  // body had its nearest face looked at and, where it approached, its normal speed set by the
+  // solve, and a cloth edge between two vertices kept off sags at most half a separation
+  // towards an edge that is not sharp (that is what "not sharp" means) unless that edge pushes
+  // into the cloth faster than the linearized contacts follow (SharpEdges::advancing): the
+  // proximity list needs edge/edge pairs with the sharp and the pushing edges only; on a draped
+  // sheet edge pairs are most of the list (ContactDetection::collect; CCD still tests every pair).
   const std::vector<SharpEdges>* sharp_edges() const { return looked_ ? &sharp_ : nullptr; }
 
  private:

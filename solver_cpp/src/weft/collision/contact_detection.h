@@ -158,9 +158,11 @@ class ContactDetection {
 
  private:
   // The proximity pairs against vertex_bodies_ (collect()), appended to pairs: every collidable
-  // cloth vertex at x with the body faces within its face's margin, then every body corner at
-  // body_x with the cloth faces within theirs; no edge/edge pairs.
-  void vertex_face_pairs(const Positions& x, const std::vector<Positions>& body_x, std::vector<FeaturePair>& pairs);
+  // cloth vertex at x with the body faces within its face's margin, then every body corner with
+  // the cloth faces within theirs, then every body edge that can reach the cloth (sharp or
+  // pushing this step; CollisionStep::sharp_edges) with the cloth edges within their margin.
+  // Body features at step.body_start.
+  void point_pairs(const Positions& x, const CollisionStep& step, std::vector<FeaturePair>& pairs);
   // Body::planes over start..end, unless those of the last call (Body::planes_at).
   void fit_body_planes(int body, const Positions& start, const Positions& end);
 
@@ -188,6 +190,7 @@ class ContactDetection {
   std::vector<std::int64_t> candidate_start_;  // collect(): body b's candidates start at this index of all
   std::vector<char> body_plain_;               // per body: the filter skips nothing against it
   std::vector<int> vertex_bodies_;             // collect(): bodies whose proximity pairs are found per vertex
+  std::vector<SharpEdges::Advance> reach_edges_;  // point_pairs(): a body's edges that may get edge pairs
   int threads_ = 1;
 };
 

@@ -62,7 +62,26 @@ int SharpEdges::update(const Faces& faces, const Positions& x, double longest_cl
       tree_.build(boxes_);
   }
   sharp_.swap(sharp);
+  separation_ = smallest_separation;
+  is_sharp_.assign(edges_.size(), 0);
+  for (int e : sharp_) is_sharp_[e] = 1;
   return static_cast<int>(sharp_.size());
+}
+
+void SharpEdges::advancing(const Positions& start, const Positions& end, double least, std::vector<Advance>& out) const {
+  if (is_sharp_.size() != edges_.size()) return;  // update() has not run
+  for (size_t e = 0; e < edges_.size(); ++e) {
+    if (is_sharp_[e]) continue;
+    const auto [f0, f1] = faces_[e];
+    Vec3 n = normals_[f0];
+    if (f1 >= 0) n += normals_[f1];
+    const double length = n.norm();
+    if (length == 0.0) continue;
+    n /= length;
+    const auto [a, b] = edges_[e];
+    const double advance = std::max((row3(end, a) - row3(start, a)).dot(n), (row3(end, b) - row3(start, b)).dot(n));
+    if (advance > least) out.push_back({edges_[e], n, advance});
+  }
 }
 
 }  // namespace weft

@@ -27,6 +27,7 @@ class SharpEdges {
   // The sharp edges at body positions x, and a tree over their boxes. Returns their count.
   int update(const Faces& faces, const Positions& x, double longest_cloth_edge, double smallest_separation);
   bool empty() const { return sharp_.empty(); }
+  int size() const { return static_cast<int>(sharp_.size()); }  // sharp edges (the tree's leaves)
   const AabbTree& tree() const { return tree_; }
   // Leaf k of the tree: the k-th sharp edge's vertices, and its sharpness |n0 - n1| (2 on a border).
   const std::array<int, 2>& edge(int leaf) const { return edges_[sharp_[leaf]]; }
@@ -36,6 +37,21 @@ class SharpEdges {
   static bool sharp_for(double sharpness, double cloth_edge_length, double separation) {
     return cloth_edge_length * sharpness > 2.0 * separation;
   }
+  // A blunt edge that may push into the cloth: its outward unit normal (its faces' normals
+  // summed) and the farthest either end advances along it over the step.
+  struct Advance {
+    std::array<int, 2> edge;
+    Vec3 normal;
+    double advance;
+  };
+  // The edges that are not sharp and whose ends advance along their outward normal by more
+  // than `least` between update's positions and `end`, appended to out. The sag bound above
+  // assumes cloth ends held at their separation by vertex contacts linearized at the step's
+  // start; a body edge advancing by more than half a separation in one step (a fast limb
+  // through a sheet) does not leave them there, and can reach a cloth edge between them
+  // (ContactDetection's point-by-point proximity pairs).
+  void advancing(const Positions& start, const Positions& end, double least, std::vector<Advance>& out) const;
+  double separation() const { return separation_; }  // update's smallest separation
 
  private:
   std::vector<std::array<int, 2>> edges_;   // vertices, lower first
@@ -46,6 +62,8 @@ class SharpEdges {
   std::vector<int> sharp_;                  // per update: sharp edge ids, increasing
   std::vector<double> sharpness_;           // per update: per sharp edge
   double sharpest_ = 0.0;
+  double separation_ = 0.0;                 // per update: the smallest separation
+  std::vector<char> is_sharp_;              // per update: per edge
   AabbTree tree_;
 };
 
