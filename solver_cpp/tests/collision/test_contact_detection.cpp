@@ -300,7 +300,11 @@ TEST(ContactDetection, ProximityPairsPointByPointHaveEdgePairsOnlyWithEdgesThatR
     out.rowwise() += by.transpose();
     return out;
   };
-  const std::set<std::array<int, 4>> pushing = edge_pairs(collect(&smooth, moved(0.6 * gap * normal), 1));
+  const std::vector<FeaturePair> pushed = collect(&smooth, moved(0.6 * gap * normal), 1);
+  const std::set<std::array<int, 4>> pushing = edge_pairs(pushed);
+  const std::vector<FeaturePair> pushed_two_threads = collect(&smooth, moved(0.6 * gap * normal), 2);
+  ASSERT_EQ(pushed_two_threads.size(), pushed.size());
+  for (size_t k = 0; k < pushed.size(); ++k) EXPECT_EQ(pushed_two_threads[k].point, pushed[k].point);
   const std::set<std::array<int, 4>> all_wanted = wanted_edge_pairs([](int, int) { return true; });
   ASSERT_GT(all_wanted.size(), border_wanted.size());
   for (const auto& p : all_wanted) EXPECT_TRUE(pushing.count(p)) << p[0] << " " << p[1] << " " << p[2] << " " << p[3];
