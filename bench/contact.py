@@ -53,6 +53,7 @@ DEFAULT_FRAMES = {
     "thin_limb": 16,
     "articulated_dress": 120,
     "articulated_dress_merged": 120,
+    "walking_dress": 120,
 }
 
 

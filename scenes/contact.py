@@ -19,6 +19,8 @@ Scenes (`SCENES` maps names to builders):
   an icosphere head, box feet) overlapping at the joints, arms and legs swinging, wearing a tube
   dress whose rest shape is 0.9 of its starting girth; the parts are separate bodies, or one
   merged body (the same overlapping parts concatenated).
+- `walking_dress`: the articulated dress on the same character also walking forward at 1.2 m/s
+  (eased in with the swing): cloth riding a body whose absolute motion is large.
 """
 
 from __future__ import annotations
@@ -174,6 +176,15 @@ def joint_angles(frames: int, fps: float = 24.0, still: int = 4, ramp: int = 6, 
     }
 
 
+def walk_offsets(frames: int, speed: float, fps: float = 24.0, still: int = 4, ramp: int = 6) -> np.ndarray:
+    """Per-frame forward (+z) offsets (m) of a character walking at `speed` m/s, eased in over
+    the frames `joint_angles` ramps its swing over (still, then smoothstep)."""
+    k = np.arange(frames, dtype=np.float64)
+    weight = np.clip((k - still) / ramp, 0.0, 1.0)
+    weight = weight * weight * (3.0 - 2.0 * weight)
+    return np.concatenate([[0.0], np.cumsum(speed * weight[1:] / fps)])
+
+
 def rotation_about(pivot, angle: float) -> np.ndarray:
     """4 x 4 rotation by `angle` about the x axis through `pivot`."""
     c, s = np.cos(angle), np.sin(angle)
@@ -218,14 +229,19 @@ def dress_mesh(parts: list[Part], around: int, along: int, top: float = 1.25, bo
 
 def articulated_dress(directory: Path, frames: int = 24, around: int = 64, along: int = 48, shrink: float = 0.9,
                       offset: float = 0.005, thickness: float = 0.003, merged: bool = False,
-                      substeps: int = 4) -> dict[str, Any]:
+                      substeps: int = 4, walk: float = 0.0) -> dict[str, Any]:
     """The character (`character_parts`) animated by `joint_angles`, wearing a dress
     (`dress_mesh`, around x along vertices) that starts `offset` outside the body and whose rest
     shape is `shrink` times its starting girth (positions scaled toward the vertical axis).
-    Bodies: one per part (`articulated_dress`), or all parts as one mesh (`merged`)."""
+    Bodies: one per part (`articulated_dress`), or all parts as one mesh (`merged`). `walk`
+    (m/s): the whole character also moves forward at that speed (`walk_offsets`)."""
     parts = character_parts()
     angles = joint_angles(frames)
     animations = [part_animation(p, angles) for p in parts]
+    if walk:
+        forward = walk_offsets(frames, walk)
+        for animation in animations:
+            animation[:, :, 2] += forward[:, None]
     dress_v, dress_f = dress_mesh(parts, around, along, offset=offset)
     rest = dress_v * [shrink, 1.0, shrink]
     directory.mkdir(parents=True, exist_ok=True)
@@ -236,7 +252,8 @@ def articulated_dress(directory: Path, frames: int = 24, around: int = 64, along
         bodies = [("body", np.concatenate(animations, axis=1), faces)]
     else:
         bodies = [(p.name, a, p.faces) for p, a in zip(parts, animations)]
-    doc = sheet_shot("articulated_dress_merged" if merged else "articulated_dress", 2, 2, 1.0, 1.0,
+    name = "walking_dress" if walk else "articulated_dress_merged" if merged else "articulated_dress"
+    doc = sheet_shot(name, 2, 2, 1.0, 1.0,
                      frames=frames, substeps=substeps, air_drag=0.2,
                      material={"thickness": thickness, "friction": 0.4, "damping": 0.01})
     doc["cloth"][0].update({"name": "dress", "mesh": inline_mesh(dress_v, dress_f),
@@ -254,6 +271,11 @@ def articulated_dress_merged(directory: Path, frames: int = 24, **kwargs: Any) -
     return articulated_dress(directory, frames=frames, merged=True, **kwargs)
 
 
+def walking_dress(directory: Path, frames: int = 24, speed: float = 1.2, **kwargs: Any) -> dict[str, Any]:
+    """`articulated_dress` on a character that walks forward at `speed` m/s as it swings."""
+    return articulated_dress(directory, frames=frames, walk=speed, **kwargs)
+
+
 SCENES: dict[str, Callable[..., dict[str, Any]]] = {
     "drape_sphere": drape_sphere,
     "drape_sphere_16k": drape_sphere_16k,
@@ -262,4 +284,5 @@ SCENES: dict[str, Callable[..., dict[str, Any]]] = {
     "thin_limb": thin_limb,
     "articulated_dress": articulated_dress,
     "articulated_dress_merged": articulated_dress_merged,
+    "walking_dress": walking_dress,
 }

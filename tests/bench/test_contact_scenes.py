@@ -23,6 +23,7 @@ TINY = {
     "thin_limb": {"n": 6, "frames": 2},
     "articulated_dress": {"around": 12, "along": 6, "frames": 2},
     "articulated_dress_merged": {"around": 12, "along": 6, "frames": 2},
+    "walking_dress": {"around": 12, "along": 6, "frames": 2},
 }
 
 
@@ -60,6 +61,19 @@ def test_dress_starts_outside_the_body_with_a_smaller_rest_shape(tmp_path: Path)
     assert m["inside_max"] == 0 and m["cloth_body_pairs_max"] == 0
     assert 0.004 < m["gap_min_m"] < 0.01
     assert m["max_strain"] == pytest.approx(1 / 0.9)  # girth edges start 1/0.9 of their rest length
+
+
+def test_the_walking_character_moves_forward_rigidly_at_its_speed(tmp_path: Path) -> None:
+    walking = build_scene("walking_dress", tmp_path / "walk", 24)
+    standing = build_scene("articulated_dress", tmp_path / "stand", 24)
+    assert walking.shot.name == "walking_dress"
+    for w, s in zip(walking.bodies, standing.bodies):
+        shift = np.asarray(w.frames) - np.asarray(s.frames)
+        # Every vertex of every part carried the same distance forward (+z) and nowhere else.
+        assert np.allclose(shift[:, :, :2], 0.0) and np.allclose(shift[:, :, 2], shift[:, :1, 2])
+        forward = shift[:, 0, 2]
+        assert forward[4] == 0.0 and np.all(np.diff(forward) >= 0.0)
+        assert np.diff(forward)[-1] * 24.0 == pytest.approx(1.2)  # full speed after the ramp
 
 
 def test_point_triangle_distance_in_every_region() -> None:
