@@ -129,8 +129,13 @@ def test_resume_refuses_a_different_shot(tmp_path) -> None:
 
 
 def start_run(tmp_path: Path, frames: int = 3000) -> tuple[subprocess.Popen, Path]:
-    """`weft run` on a long shot, returned once it has written a few frames."""
+    """`weft run` on a long shot, returned once it has finished four frames: the saved state's
+    frame index (written last of a frame, `CacheWriter.append`) has reached the fourth. The
+    frame rows alone are not enough: a reader sees a frame's row before its state is saved, and
+    a kill in between leaves that frame unfinished (a recovery keeps three)."""
     import time
+
+    from weft.cache import saved_state_group
 
     shot = write_shot(tmp_path, frames=frames, n=24, substeps=8)
     cache = tmp_path / "stopped.h5"
@@ -140,7 +145,7 @@ def start_run(tmp_path: Path, frames: int = 3000) -> tuple[subprocess.Popen, Pat
     while time.monotonic() < deadline:
         try:
             with open_cache_reader(cache) as f:
-                if f["frames/frame"].shape[0] >= 4:
+                if int(f[saved_state_group(f)]["frame_index"][0]) >= 3:
                     return proc, cache
         except Exception:  # not created yet
             pass
