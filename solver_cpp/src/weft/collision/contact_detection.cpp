@@ -456,9 +456,7 @@ void ContactDetection::point_pairs(const Positions& x, const CollisionStep& step
     const Positions& bx = body_x[body];
     reach_edges_.clear();
     for (int leaf = 0; leaf < sharp.size(); ++leaf) reach_edges_.push_back(sharp.edge(leaf));
-    advancing_.clear();
-    sharp.advancing(bx, step.body_end[body], 0.5 * sharp.separation(), advancing_);
-    for (const SharpEdges::Advance& a : advancing_) reach_edges_.push_back(a.edge);
+    sharp.advancing(bx, step.body_end[body], 0.5 * sharp.separation(), reach_edges_);
     ordered_append(static_cast<std::int64_t>(reach_edges_.size()), kExpandChunk, threads_, pairs, chunk_pairs_,
                    [&](std::int64_t k, std::vector<FeaturePair>& out) {
                      const std::array<int, 2>& be = reach_edges_[static_cast<size_t>(k)];

@@ -190,8 +190,7 @@ class ContactDetection {
   std::vector<std::int64_t> candidate_start_;  // collect(): body b's candidates start at this index of all
   std::vector<char> body_plain_;               // per body: the filter skips nothing against it
   std::vector<int> vertex_bodies_;             // collect(): bodies whose proximity pairs are found per vertex
-  std::vector<std::array<int, 2>> reach_edges_;   // point_pairs(): a body's edges that get edge pairs
-  std::vector<SharpEdges::Advance> advancing_;     // point_pairs(): a body's blunt edges advancing
+  std::vector<std::array<int, 2>> reach_edges_;  // point_pairs(): a body's edges that get edge pairs
   int threads_ = 1;
 };
 

@@ -68,7 +68,8 @@ int SharpEdges::update(const Faces& faces, const Positions& x, double longest_cl
   return static_cast<int>(sharp_.size());
 }
 
-void SharpEdges::advancing(const Positions& start, const Positions& end, double least, std::vector<Advance>& out) const {
+void SharpEdges::advancing(const Positions& start, const Positions& end, double least,
+                           std::vector<std::array<int, 2>>& out) const {
   if (is_sharp_.size() != edges_.size()) return;  // update() has not run
   for (size_t e = 0; e < edges_.size(); ++e) {
     if (is_sharp_[e]) continue;
@@ -80,7 +81,7 @@ void SharpEdges::advancing(const Positions& start, const Positions& end, double 
     n /= length;
     const auto [a, b] = edges_[e];
     const double advance = std::max((row3(end, a) - row3(start, a)).dot(n), (row3(end, b) - row3(start, b)).dot(n));
-    if (advance > least) out.push_back({edges_[e], n, advance});
+    if (advance > least) out.push_back(edges_[e]);
   }
 }
 

@@ -37,20 +37,15 @@ class SharpEdges {
   static bool sharp_for(double sharpness, double cloth_edge_length, double separation) {
     return cloth_edge_length * sharpness > 2.0 * separation;
   }
-  // A blunt edge that may push into the cloth: its outward unit normal (its faces' normals
-  // summed) and the farthest either end advances along it over the step.
-  struct Advance {
-    std::array<int, 2> edge;
-    Vec3 normal;
-    double advance;
-  };
-  // The edges that are not sharp and whose ends advance along their outward normal by more
-  // than `least` between update's positions and `end`, appended to out. The sag bound above
+  // The edges that are not sharp and one of whose ends advances along the edge's outward
+  // normal (its faces' unit normals summed) by more than `least` between update's positions
+  // and `end`, appended to out. The sag bound above
   // assumes cloth ends held at their separation by vertex contacts linearized at the step's
   // start; a body edge advancing by more than half a separation in one step (a fast limb
   // through a sheet) does not leave them there, and can reach a cloth edge between them
   // (ContactDetection's point-by-point proximity pairs).
-  void advancing(const Positions& start, const Positions& end, double least, std::vector<Advance>& out) const;
+  void advancing(const Positions& start, const Positions& end, double least,
+                 std::vector<std::array<int, 2>>& out) const;
   double separation() const { return separation_; }  // update's smallest separation
 
  private:
