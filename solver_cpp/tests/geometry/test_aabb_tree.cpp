@@ -147,3 +147,79 @@ TEST(AabbTree, ParallelRefitsEqualTheSerialOnes) {
     for (size_t j = i + 1; j < moved.size(); ++j) overlapping += moved[i].overlaps(moved[j]);
   EXPECT_EQ(static_cast<int>(two.size()), overlapping);
 }
+
+// Boxes moving over a step (start and end boxes), most of them carried along by one motion:
+// traversals in the frame moving with it list exactly the leaves whose boxes overlap there
+// (start box joined with the end box less the shift), the same for any thread count, and far
+// fewer than the world-frame boxes overlap.
+TEST(AabbTree, ShiftedTraversalsListTheBoxesOverlappingInTheMovingFrame) {
+  const Vec3 carry(0.05, 0.02, 0.0);
+  auto moving = [&](int count, unsigned seed, std::vector<Aabb>& start, std::vector<Aabb>& end,
+                    std::vector<Aabb>& swept) {
+    start = random_boxes(count, seed, 0.008);
+    std::mt19937 rng(seed + 100);
+    std::uniform_real_distribution<double> jitter(-0.002, 0.002);
+    end = start;
+    swept = start;
+    for (int i = 0; i < count; ++i) {
+      const Vec3 d = carry + Vec3(jitter(rng), jitter(rng), jitter(rng));
+      end[i].lo += d;
+      end[i].hi += d;
+      swept[i].expand(end[i]);
+    }
+  };
+  std::vector<Aabb> as, ae, a, bs, be, b;
+  moving(2000, 5, as, ae, a);
+  moving(800, 6, bs, be, b);
+  AabbTree ta, tb;
+  ta.build(a);
+  tb.build(b);
+  ta.refit(as, ae);
+  tb.refit(bs, be);
+  ASSERT_TRUE(ta.moving() && tb.moving());
+  auto shifted = [&](const std::vector<Aabb>& s, const std::vector<Aabb>& e, int i) {
+    Aabb box = e[i];
+    box.lo -= carry;
+    box.hi -= carry;
+    box.expand(s[i]);
+    return box;
+  };
+  std::set<std::pair<int, int>> expected_self, expected_across;
+  size_t world_self = 0;
+  for (int i = 0; i < static_cast<int>(a.size()); ++i) {
+    for (int j = i + 1; j < static_cast<int>(a.size()); ++j) {
+      if (shifted(as, ae, i).overlaps(shifted(as, ae, j))) expected_self.insert({i, j});
+      world_self += a[i].overlaps(a[j]);
+    }
+    for (int j = 0; j < static_cast<int>(b.size()); ++j)
+      if (shifted(as, ae, i).overlaps(shifted(bs, be, j))) expected_across.insert({i, j});
+  }
+  std::vector<std::pair<int, int>> self, across;
+  ta.self_pairs(carry, self);
+  ta.pairs(tb, carry, across);
+  ASSERT_GT(self.size(), 100u);
+  ASSERT_GT(across.size(), 50u);
+  using PairSet = std::set<std::pair<int, int>>;
+  EXPECT_EQ(PairSet(self.begin(), self.end()), expected_self);
+  EXPECT_EQ(self.size(), expected_self.size());
+  EXPECT_EQ(PairSet(across.begin(), across.end()), expected_across);
+  EXPECT_EQ(across.size(), expected_across.size());
+  EXPECT_LT(4 * self.size(), world_self) << self.size() << " shifted, " << world_self << " in the world";
+  for (int threads : {2, 5}) {
+    std::vector<std::pair<int, int>> parallel_self, parallel_across;
+    ta.self_pairs(carry, parallel_self, nullptr, threads);
+    ta.pairs(tb, carry, parallel_across, threads);
+    EXPECT_EQ(parallel_self, self) << threads << " threads";
+    EXPECT_EQ(parallel_across, across) << threads << " threads";
+  }
+  // A query in the moving frame: the leaves whose shifted boxes overlap the query box.
+  const Aabb probe = shifted(bs, be, 17);
+  std::set<int> hits, expected_hits;
+  ta.query(probe, carry, [&](int leaf) { hits.insert(leaf); });
+  for (int i = 0; i < static_cast<int>(a.size()); ++i)
+    if (shifted(as, ae, i).overlaps(probe)) expected_hits.insert(i);
+  EXPECT_EQ(hits, expected_hits);
+  // A plain refit leaves the tree not moving.
+  ta.refit(a);
+  EXPECT_FALSE(ta.moving());
+}

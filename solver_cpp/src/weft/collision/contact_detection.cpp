@@ -13,104 +13,10 @@ namespace weft {
 namespace {
 bool face_has(const Faces& faces, int f, int v) { return faces(f, 0) == v || faces(f, 1) == v || faces(f, 2) == v; }
 
-using Triangle = std::array<Vec3, 3>;
-
-// Relative slack of the plane test's limit. Resting contact holds cloth at exactly the
-// thickness, where a point's distance to a plane and its distance to the face (computed by
-// other arithmetic: point_triangle_distance, segment_segment_distance) can differ in the last
-// bits; a pair at the gap is listed rather than dropped on rounding.
-constexpr double kPlaneSlack = 1e-6;
-
-Triangle corners(const Faces& faces, int f, const Positions& x) {
-  return {row3(x, faces(f, 0)), row3(x, faces(f, 1)), row3(x, faces(f, 2))};
-}
-
-// Signed distances of B's corners (start and end) to A's start plane, lowest and highest per
-// corner, and the limit beyond which a point stays more than gap from A over the step: gap plus
-// A's largest corner displacement (every point of a linearly moving triangle stays within it of
-// its start position), widened by kPlaneSlack; infinite when A is degenerate (no plane, nothing
-// is beyond).
-void corner_sides(const SweptPlanes& pa, int a, const Faces& fb, int b, const Positions& bs, const Positions& be,
-                  double gap, double slack, std::array<double, 3>& lo, std::array<double, 3>& hi, double& limit) {
-  const Vec3& n = pa.normal[a];
-  if (n == Vec3::Zero()) {
-    limit = std::numeric_limits<double>::infinity();
-    lo.fill(0.0);
-    hi.fill(0.0);
-    return;
-  }
-  limit = (gap + pa.motion[a]) * (1.0 + slack);
-  const Vec3& origin = pa.origin[a];
-  for (int k = 0; k < 3; ++k) {
-    const int v = fb(b, k);
-    const double ds = n.dot(row3(bs, v) - origin);
-    const double de = &be == &bs ? ds : n.dot(row3(be, v) - origin);  // static: the same point
-    lo[k] = std::min(ds, de);
-    hi[k] = std::max(ds, de);
-  }
-}
-
-// Whether the corners in `mask` all lie beyond `limit` on one side.
-bool beyond(const std::array<double, 3>& lo, const std::array<double, 3>& hi, double limit, int mask) {
-  double low = std::numeric_limits<double>::infinity(), high = -low;
-  for (int k = 0; k < 3; ++k)
-    if (mask & (1 << k)) {
-      low = std::min(low, lo[k]);
-      high = std::max(high, hi[k]);
-    }
-  return low > limit || high < -limit;
-}
-
-// The plane test of triangle pair (a of fa, b of fb), corner by corner (ContactDetection::PlaneSides):
-// true when either plane keeps the whole triangles apart (then `sides` may be half filled: B's
-// corners against A's plane are measured first, and a separating plane ends the test).
-// `exact`: the pair's list is the proximity list, whose response acts exactly within the gap
-// (the limit gets kPlaneSlack). CCD's lists keep the plain limit: CCD itself reports pairs
-// somewhat beyond its minimum separation (its tolerance grows with each query's extent), so
-// what they list is what they always listed.
-bool triangles_apart(const SweptPlanes& pa, int a, const Faces& fa, const Positions& as, const Positions& ae,
-                     const SweptPlanes& pb, int b, const Faces& fb, const Positions& bs, const Positions& be,
-                     double gap, bool exact, ContactDetection::PlaneSides& sides) {
-  const double slack = exact ? kPlaneSlack : 0.0;
-  corner_sides(pa, a, fb, b, bs, be, gap, slack, sides.other_lo, sides.other_hi, sides.other_limit);
-  if (beyond(sides.other_lo, sides.other_hi, sides.other_limit, 7)) return true;
-  corner_sides(pb, b, fa, a, as, ae, gap, slack, sides.cloth_lo, sides.cloth_hi, sides.cloth_limit);
-  return beyond(sides.cloth_lo, sides.cloth_hi, sides.cloth_limit, 7);
-}
-
 // Triangle pairs per parallel chunk of the plane test and expansion (collect).
 constexpr std::int64_t kExpandChunk = 512;
 
 }  // namespace
-
-bool ContactDetection::PlaneSides::apart(int cloth_mask, int other_mask) const {
-  return beyond(cloth_lo, cloth_hi, cloth_limit, cloth_mask) || beyond(other_lo, other_hi, other_limit, other_mask);
-}
-
-void SweptPlanes::compute(const Faces& faces, const Positions& start, const Positions& end, int threads) {
-  const int count = static_cast<int>(faces.rows());
-  normal.resize(count);
-  origin.resize(count);
-  motion.resize(count);
-#pragma omp parallel for schedule(static) num_threads(threads) if (threads > 1 && count > 4096)
-  for (int f = 0; f < count; ++f) compute_face(faces, start, end, f);
-}
-
-void SweptPlanes::compute_faces(const Faces& faces, const Positions& start, const Positions& end,
-                                const std::vector<int>& list) {
-  for (int f : list) compute_face(faces, start, end, f);
-}
-
-void SweptPlanes::compute_face(const Faces& faces, const Positions& start, const Positions& end, int f) {
-  const Triangle s = corners(faces, f, start), e = corners(faces, f, end);
-  Vec3 n = (s[1] - s[0]).cross(s[2] - s[0]);
-  const double norm = n.norm();
-  normal[f] = norm > 0.0 ? Vec3(n / norm) : Vec3::Zero();
-  origin[f] = s[0];
-  double m = 0.0;
-  for (int k = 0; k < 3; ++k) m = std::max(m, (e[k] - s[k]).norm());
-  motion[f] = m;
-}
 
 ContactDetection::ContactDetection(const Faces& cloth_faces, const Positions& x, std::vector<char> face_collide,
                                    std::vector<char> face_self, std::vector<double> face_margin,
@@ -125,6 +31,7 @@ ContactDetection::ContactDetection(const Faces& cloth_faces, const Positions& x,
   cloth_tree_.build(cloth_boxes_);
   if (any_self_ && self_culling_) culling_.rebuild(cloth_tree_, cloth_faces_, face_self_);
   bodies_.resize(bodies.size());
+  body_shift_.assign(bodies.size(), Vec3::Zero());
   for (size_t b = 0; b < bodies.size(); ++b) {
     Body& state = bodies_[b];
     state.collide = body_collide[b] != 0;
@@ -138,16 +45,71 @@ ContactDetection::ContactDetection(const Faces& cloth_faces, const Positions& x,
   }
 }
 
-void ContactDetection::refit_cloth(const Positions& start, const Positions& end, double fraction) {
+namespace {
+// Boxes of moving triangles (start and end not the same object): at the start, at the end and
+// their union (triangle_boxes over the step), for a moving refit of their tree.
+void moving_boxes(const Faces& faces, const Positions& start, const Positions& end, const std::vector<double>& margin,
+                  std::vector<Aabb>& start_boxes, std::vector<Aabb>& end_boxes, std::vector<Aabb>& boxes,
+                  int threads) {
+  const int count = static_cast<int>(faces.rows());
+  start_boxes.resize(count);
+  end_boxes.resize(count);
+  boxes.resize(count);
+#pragma omp parallel for schedule(static) num_threads(threads) if (threads > 1 && count >= 2048)
+  for (int f = 0; f < count; ++f) {
+    start_boxes[f] = triangle_box(faces, start, start, margin, f);
+    end_boxes[f] = triangle_box(faces, end, end, margin, f);
+    boxes[f] = start_boxes[f];
+    boxes[f].expand(end_boxes[f]);
+  }
+}
+}  // namespace
+
+void ContactDetection::refit_cloth(const Positions& start, const Positions& end, double fraction, bool moving) {
   swept_cloth_current_ = false;
-  if (fraction == 1.0) {
-    triangle_boxes(cloth_faces_, start, end, face_margin_, cloth_boxes_, threads_);
-  } else {
+  const std::vector<double>* margin = &face_margin_;
+  if (fraction != 1.0) {
     scaled_margin_.resize(face_margin_.size());
     for (size_t f = 0; f < face_margin_.size(); ++f) scaled_margin_[f] = fraction * face_margin_[f];
-    triangle_boxes(cloth_faces_, start, end, scaled_margin_, cloth_boxes_, threads_);
+    margin = &scaled_margin_;
   }
-  cloth_tree_.refit(cloth_boxes_, threads_);
+  if (!moving || &start == &end) {
+    triangle_boxes(cloth_faces_, start, end, *margin, cloth_boxes_, threads_);
+    cloth_tree_.refit(cloth_boxes_, threads_);
+    return;
+  }
+  moving_boxes(cloth_faces_, start, end, *margin, cloth_start_boxes_, cloth_end_boxes_, cloth_boxes_, threads_);
+  cloth_tree_.refit(cloth_start_boxes_, cloth_end_boxes_, threads_);
+}
+
+const Positions& ContactDetection::shifted_end(const Positions& end, const Vec3& shift) {
+  shifted_end_ = end.rowwise() - shift.transpose();
+  return shifted_end_;
+}
+
+Aabb ContactDetection::shifted_cloth_box(int f, const Vec3& shift) const {
+  Aabb box = cloth_end_boxes_[f];
+  box.lo -= shift;
+  box.hi -= shift;
+  box.expand(cloth_start_boxes_[f]);
+  return box;
+}
+
+bool ContactDetection::choose_sweep_frames(const CollisionStep& step) {
+  self_shift_ = any_self_ ? sweep_frame_.shift(*step.x, step.x_end, kCcdSeparationFraction * largest_margin_)
+                          : Vec3::Zero();
+  bool any = self_shift_ != Vec3::Zero();
+  for (size_t b = 0; b < bodies_.size(); ++b) {
+    body_shift_[b] = Vec3::Zero();
+    if (!bodies_[b].collide) continue;
+    const Body& state = refit_body(static_cast<int>(b), step.body_start[b], step.body_end[b]);
+    Aabb reach = state.tree.bounds();
+    reach.inflate(largest_margin_);
+    body_shift_[b] = sweep_frame_.shift(step.body_start[b], step.body_end[b], reach, *step.x, step.x_end,
+                                        kCcdSeparationFraction * largest_margin_);
+    any = any || body_shift_[b] != Vec3::Zero();
+  }
+  return any;
 }
 
 bool FittedAt::same(const Positions& start, const Positions& end) const {
@@ -166,9 +128,16 @@ void FittedAt::set(const Positions& start, const Positions& end) {
 
 const ContactDetection::Body& ContactDetection::refit_body(int body, const Positions& start, const Positions& end) {
   Body& state = bodies_[body];
-  if (state.boxes_at.same(start, end)) return state;  // boxes and tree as they are
-  triangle_boxes(state.faces, start, end, {}, state.boxes, threads_);
-  state.tree.refit(state.boxes, threads_);
+  // Boxes and tree as they are when start and end are those of the last refit, and it was a
+  // moving one if this is.
+  if (state.boxes_at.same(start, end) && (&start == &end || state.tree.moving())) return state;
+  if (&start == &end) {
+    triangle_boxes(state.faces, start, end, {}, state.boxes, threads_);
+    state.tree.refit(state.boxes, threads_);
+  } else {
+    moving_boxes(state.faces, start, end, {}, state.start_boxes, state.end_boxes, state.boxes, threads_);
+    state.tree.refit(state.start_boxes, state.end_boxes, threads_);
+  }
   state.boxes_at.set(start, end);
   return state;
 }
@@ -214,12 +183,14 @@ struct CornerBoxes {
   std::array<int, 3> vertex{};
   std::array<Aabb, 3> box;
   Aabb face;
-  void compute(std::array<int, 3> corners, const Positions& start, const Positions& end) {
+  // shift: in the frame moving by it over the step (sweep_frame.h), end positions less it.
+  void compute(std::array<int, 3> corners, const Positions& start, const Positions& end, const Vec3* shift) {
     vertex = corners;
     face = Aabb();
     for (int c = 0; c < 3; ++c) {
       const Vec3 s = row3(start, corners[c]);
-      const Vec3 e = &end != &start ? Vec3(row3(end, corners[c])) : s;
+      Vec3 e = &end != &start ? Vec3(row3(end, corners[c])) : s;
+      if (shift) e -= *shift;
       box[c].lo = s.cwiseMin(e);
       box[c].hi = s.cwiseMax(e);
       face.expand(box[c]);
@@ -251,9 +222,9 @@ void ContactDetection::expand_triangle_pair(int cf, int of, int body, const Cont
   auto compute_boxes = [&](const Faces& other_faces) {
     if (!boxed) return;
     cloth.compute({cloth_faces_(cf, 0), cloth_faces_(cf, 1), cloth_faces_(cf, 2)}, *sweep->cloth_start,
-                  *sweep->cloth_end);
+                  *sweep->cloth_end, sweep->shift);
     other.compute({other_faces(of, 0), other_faces(of, 1), other_faces(of, 2)}, *sweep->other_start,
-                  *sweep->other_end);
+                  *sweep->other_end, sweep->shift);
   };
   auto first_near = [&](Aabb first, const Aabb& second) {
     first.inflate(sweep->gap);
@@ -325,18 +296,26 @@ void ContactDetection::collect(CollisionStep& step, const ContactFilter& filter,
   const Positions& x = *step.x;
   const Positions& end = swept ? step.x_end : x;
   const double fraction = swept ? kCcdSeparationFraction : 1.0;
-  refit_cloth(x, end, fraction);
+  // The bodies' sweep frames first: the cloth tree keeps its start and end boxes only where
+  // some body needs them.
+  const bool shifted = swept && choose_sweep_frames(step);
+  refit_cloth(x, end, fraction, shifted);
   cloth_planes_.compute(cloth_faces_, x, end, threads_);
   std::vector<FeaturePair>& pairs = swept ? step.pairs : step.proximity_pairs;
   pairs.clear();
   if (any_self_) {
     scratch_pairs_.clear();
+    const Vec3* shift = swept && self_shift_ != Vec3::Zero() ? &self_shift_ : nullptr;
     const std::vector<char>* culled = nullptr;
     if (self_culling_) {
-      culling_.update(cloth_tree_, cloth_faces_, x, end, fraction * largest_margin_, threads_);
+      culling_.update(cloth_tree_, cloth_faces_, x, shift ? shifted_end(end, *shift) : end, fraction * largest_margin_,
+                      threads_);
       culled = &culling_.culled();
     }
-    cloth_tree_.self_pairs(scratch_pairs_, culled, threads_);
+    if (shift)
+      cloth_tree_.self_pairs(*shift, scratch_pairs_, culled, threads_);
+    else
+      cloth_tree_.self_pairs(scratch_pairs_, culled, threads_);
     ordered_append(static_cast<std::int64_t>(scratch_pairs_.size()), kExpandChunk, threads_, pairs, chunk_pairs_,
                    [&](std::int64_t k, std::vector<FeaturePair>& out) {
                      const auto [a, b] = scratch_pairs_[k];
@@ -344,9 +323,9 @@ void ContactDetection::collect(CollisionStep& step, const ContactFilter& filter,
                      const double gap = fraction * std::max(face_margin_[a], face_margin_[b]);
                      PlaneSides sides;
                      if (triangles_apart(cloth_planes_, a, cloth_faces_, x, end, cloth_planes_, b, cloth_faces_, x,
-                                         end, gap, !swept, sides))
+                                         end, gap, !swept, sides, shift))
                        return;
-                     const Sweep sweep{&x, &end, &x, &end, gap, swept ? nullptr : &sides};
+                     const Sweep sweep{&x, &end, &x, &end, gap, swept ? nullptr : &sides, shift};
                      expand_triangle_pair(a, b, -1, filter, out, &sweep);
                    });
   }
@@ -372,7 +351,11 @@ void ContactDetection::collect(CollisionStep& step, const ContactFilter& filter,
       vertex_bodies_.push_back(static_cast<int>(b));
       continue;
     }
-    body_pairs(static_cast<int>(b), body_start, body_end, body_candidates_[b]);
+    const Body& state = refit_body(static_cast<int>(b), body_start, body_end);
+    if (swept && body_shift_[b] != Vec3::Zero())
+      cloth_tree_.pairs(state.tree, body_shift_[b], body_candidates_[b], threads_);
+    else
+      cloth_tree_.pairs(state.tree, body_candidates_[b], threads_);
     fit_body_planes(static_cast<int>(b), body_start, body_end);
     body_plain_[b] = filter.skips_nothing(static_cast<int>(b));
     candidate_start_[b + 1] += static_cast<std::int64_t>(body_candidates_[b].size());
@@ -387,12 +370,13 @@ void ContactDetection::collect(CollisionStep& step, const ContactFilter& filter,
                    const Positions& body_start = step.body_start[b];
                    const Positions& body_end = swept ? step.body_end[b] : body_start;
                    const double gap = fraction * face_margin_[cf];
+                   const Vec3* shift = swept && body_shift_[b] != Vec3::Zero() ? &body_shift_[b] : nullptr;
                    PlaneSides sides;
                    if (triangles_apart(cloth_planes_, cf, cloth_faces_, x, end, bodies_[b].planes, bf, bodies_[b].faces,
-                                       body_start, body_end, gap, !swept, sides))
+                                       body_start, body_end, gap, !swept, sides, shift))
                      return;
                    const size_t first = out.size();
-                   const Sweep sweep{&x, &end, &body_start, &body_end, gap, swept ? nullptr : &sides};
+                   const Sweep sweep{&x, &end, &body_start, &body_end, gap, swept ? nullptr : &sides, shift};
                    expand_triangle_pair(cf, bf, body, filter, out, &sweep);
                    if (!body_plain_[b] && filter.pinched_face(cf, body))  // cloth in a body/body pinch: no CCD
                      for (size_t j = first; j < out.size(); ++j) out[j].ccd = false;
@@ -499,29 +483,45 @@ void ContactDetection::collect_changed(CollisionStep& step, const ContactFilter&
     if (scaled_margin_.size() != face_margin_.size()) scaled_margin_.resize(face_margin_.size());
     for (int f : changed_faces_) {
       scaled_margin_[f] = fraction * face_margin_[f];
-      cloth_boxes_[f] = triangle_box(cloth_faces_, x, end, scaled_margin_, f);
+      if (cloth_tree_.moving()) {
+        cloth_end_boxes_[f] = triangle_box(cloth_faces_, end, end, scaled_margin_, f);
+        cloth_boxes_[f] = cloth_start_boxes_[f];
+        cloth_boxes_[f].expand(cloth_end_boxes_[f]);
+      } else {
+        cloth_boxes_[f] = triangle_box(cloth_faces_, x, end, scaled_margin_, f);
+      }
     }
-    cloth_tree_.refit(cloth_boxes_, threads_);
+    if (cloth_tree_.moving())
+      cloth_tree_.refit(cloth_start_boxes_, cloth_end_boxes_, threads_);
+    else
+      cloth_tree_.refit(cloth_boxes_, threads_);
     cloth_planes_.compute_faces(cloth_faces_, x, end, changed_faces_);
   } else {
-    refit_cloth(x, end, fraction);
+    // The sweep frames of the step's swept collect stay (any frame lists every pair that can
+    // come within the gap).
+    const bool shifted = self_shift_ != Vec3::Zero() ||
+                         std::any_of(body_shift_.begin(), body_shift_.end(), [](const Vec3& s) { return s != Vec3::Zero(); });
+    refit_cloth(x, end, fraction, shifted);
     cloth_planes_.compute(cloth_faces_, x, end, threads_);
   }
   const auto changed_count = static_cast<std::int64_t>(changed_faces_.size());
   if (any_self_ && changed_count > 0) {
     leaf_culled_top_.clear();
     if (self_culling_) {
+      // In the cloth's sweep frame, as the swept collect culled.
+      const Positions& cull_end = self_shift_ != Vec3::Zero() ? shifted_end(end, self_shift_) : end;
       if (incremental)
-        culling_.update_changed(cloth_tree_, cloth_faces_, x, end, fraction * largest_margin_, face_changed_,
+        culling_.update_changed(cloth_tree_, cloth_faces_, x, cull_end, fraction * largest_margin_, face_changed_,
                                 threads_);
       else
-        culling_.update(cloth_tree_, cloth_faces_, x, end, fraction * largest_margin_, threads_);
+        culling_.update(cloth_tree_, cloth_faces_, x, cull_end, fraction * largest_margin_, threads_);
       cloth_tree_.topmost_marked(culling_.culled(), leaf_culled_top_);
     }
+    const Vec3* shift = self_shift_ != Vec3::Zero() ? &self_shift_ : nullptr;
     ordered_append(changed_count, 16, threads_, pairs, chunk_pairs_, [&](std::int64_t k, std::vector<FeaturePair>& out) {
       const int a = changed_faces_[k];
       if (!face_self_[a]) return;
-      cloth_tree_.query(cloth_boxes_[a], [&](int b) {
+      auto expand = [&](int b) {
         // Each pair once: a changed partner takes it only from the smaller face.
         if (b == a || !face_self_[b] || (face_changed_[b] && b < a)) return;
         if (!leaf_culled_top_.empty() && leaf_culled_top_[a] >= 0 && leaf_culled_top_[a] == leaf_culled_top_[b]) return;
@@ -529,11 +529,15 @@ void ContactDetection::collect_changed(CollisionStep& step, const ContactFilter&
         const double gap = fraction * std::max(face_margin_[lo], face_margin_[hi]);
         PlaneSides sides;
         if (triangles_apart(cloth_planes_, lo, cloth_faces_, x, end, cloth_planes_, hi, cloth_faces_, x, end, gap, false,
-                            sides))
+                            sides, shift))
           return;
-        const Sweep sweep{&x, &end, &x, &end, gap};
+        const Sweep sweep{&x, &end, &x, &end, gap, nullptr, shift};
         expand_triangle_pair(lo, hi, -1, filter, out, &sweep);
-      });
+      };
+      if (shift)
+        cloth_tree_.query(shifted_cloth_box(a, *shift), *shift, expand);
+      else
+        cloth_tree_.query(cloth_boxes_[a], expand);
     });
   }
   if (changed_count > 0 && any_body_) {
@@ -557,18 +561,24 @@ void ContactDetection::collect_changed(CollisionStep& step, const ContactFilter&
                      const int body = static_cast<int>(b);
                      const Positions& body_start = step.body_start[b];
                      const Positions& body_end = step.body_end[b];
-                     state.tree.query(cloth_boxes_[cf], [&](int bf) {
+                     const Vec3* shift = body_shift_[b] != Vec3::Zero() ? &body_shift_[b] : nullptr;
+                     auto expand = [&](int bf) {
                        const double gap = fraction * face_margin_[cf];
                        PlaneSides sides;
                        if (triangles_apart(cloth_planes_, cf, cloth_faces_, x, end, state.planes, bf, state.faces,
-                                           body_start, body_end, gap, false, sides))
+                                           body_start, body_end, gap, false, sides, shift))
                          return;
                        const size_t first = out.size();
-                       const Sweep sweep{&x, &end, &body_start, &body_end, gap};
+                       const Sweep sweep{&x, &end, &body_start, &body_end, gap, nullptr, shift};
                        expand_triangle_pair(cf, bf, body, filter, out, &sweep);
                        if (!body_plain_[b] && filter.pinched_face(cf, body))
                          for (size_t j = first; j < out.size(); ++j) out[j].ccd = false;
-                     });
+                     };
+                     if (shift == nullptr) {
+                       state.tree.query(cloth_boxes_[cf], expand);
+                     } else {
+                       state.tree.query(shifted_cloth_box(cf, *shift), *shift, expand);
+                     }
                    });
   }
   // Boxes and planes are now those of this pass; the culling too where it was updated.

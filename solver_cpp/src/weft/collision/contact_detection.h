@@ -19,24 +19,12 @@
 #include "weft/collision/collision_step.h"
 #include "weft/collision/contact_filter.h"
 #include "weft/collision/self_culling.h"
+#include "weft/collision/sweep_frame.h"
+#include "weft/collision/swept_planes.h"
 #include "weft/geometry/aabb_tree.h"
 #include "weft/geometry/closest_points.h"
 
 namespace weft {
-
-// Per face, over a step: the unit normal of its start plane (zero when degenerate), a point of
-// that plane (corner 0 at the start) and its largest corner displacement. The plane test of the
-// broad phase reads them instead of recomputing them for every triangle pair.
-struct SweptPlanes {
-  std::vector<Vec3> normal, origin;
-  std::vector<double> motion;
-  void compute(const Faces& faces, const Positions& start, const Positions& end, int threads);
-  // The same for the listed faces only (the others keep theirs).
-  void compute_faces(const Faces& faces, const Positions& start, const Positions& end, const std::vector<int>& list);
-
- private:
-  void compute_face(const Faces& faces, const Positions& start, const Positions& end, int f);
-};
 
 // The configuration (start and end positions) something was last computed from, kept to tell
 // whether a recomputation would give the same: a body standing still, or the same body state
@@ -60,7 +48,8 @@ class ContactDetection {
     Faces faces;
     FeatureOwnership own;
     AabbTree tree;
-    std::vector<Aabb> boxes;
+    std::vector<Aabb> boxes;              // over the step (start and end)
+    std::vector<Aabb> start_boxes, end_boxes;  // of a moving refit (start and end not the same object)
     FittedAt boxes_at;   // boxes and tree
     SweptPlanes planes;  // collect(), collect_changed()
     FittedAt planes_at;
@@ -75,8 +64,9 @@ class ContactDetection {
                    bool self_culling = true);
 
   // Cloth boxes over start..end (the same object: static boxes), widened by `fraction` of each
-  // face's margin.
-  void refit_cloth(const Positions& start, const Positions& end, double fraction = 1.0);
+  // face's margin. moving: the tree also keeps the start and end boxes (AabbTree::moving), for
+  // the traversals in a body's sweep frame.
+  void refit_cloth(const Positions& start, const Positions& end, double fraction = 1.0, bool moving = false);
   // Refit body `body`'s tree over start..end (the same object: static) and return its
   // overlapping (cloth face, body face) pairs against the cloth tree as last refitted.
   const std::vector<std::pair<int, int>>& body_pairs(int body, const Positions& start, const Positions& end);
@@ -84,11 +74,14 @@ class ContactDetection {
   void body_pairs(int body, const Positions& start, const Positions& end, std::vector<std::pair<int, int>>& out);
   // Refit body `body`'s boxes and tree over start..end (the same object: static) and return it:
   // the contact constraints query it vertex by vertex. Nothing is recomputed when start and end
-  // are those of the last refit (Body::boxes_at).
+  // are those of the last refit (Body::boxes_at). Moving (start and end not the same object),
+  // the tree keeps its start and end boxes (AabbTree::moving) for a shifted traversal.
   const Body& refit_body(int body, const Positions& start, const Positions& end);
   // Broad phase. swept: over the step from step.x to step.x_end within the CCD minimum
   // separation, into step.pairs; else at step.x within one thickness, into
-  // step.proximity_pairs. Cloth in a pinch region gets no CCD.
+  // step.proximity_pairs. Cloth in a pinch region gets no CCD. The swept list's cloth/body
+  // pairs are those whose boxes come within the gap in the body's sweep frame (sweep_frame.h;
+  // body_shift()), chosen here for the step's CCD passes.
   void collect(CollisionStep& step, const ContactFilter& filter, CollisionTelemetry& frame, bool swept);
   // The CCD list of a pass after the first (collision_system.cpp): only triangle pairs with a
   // face that has a vertex in step.changed (velocity changed since the last pass), found by
@@ -96,33 +89,19 @@ class ContactDetection {
   // feature pair with a changed point comes from such a triangle pair (each feature belongs to a
   // face that holds its points), and the same culling, plane test and filter apply, so the
   // pairs an incremental CCD pass examines are those of a full collect(.., true), in another
-  // order. After the step's swept collect(), only the changed faces' boxes, planes and culling
-  // are redone (the rest of x_end has not moved); the body trees are not refitted again.
+  // order (in the sweep frames the swept collect chose). After the step's swept collect(), only
+  // the changed faces' boxes, planes and culling are redone (the rest of x_end has not moved);
+  // the body trees are not refitted again.
   void collect_changed(CollisionStep& step, const ContactFilter& filter, CollisionTelemetry& frame);
   // Candidates for the exact intersection count at the static configuration x: triangle pairs
   // with overlapping boxes (no margin), without the self-pairs of tree nodes that cannot
   // intersect themselves (self_culling.h at margin 0). Refits the trees (collect refits anew).
   const std::vector<std::pair<int, int>>& self_intersection_candidates(const Positions& x);
 
-  // A triangle pair's plane test, corner by corner: the lowest and highest signed distance over
-  // the step (start and end) of each face's corners to the other face's start plane, and how far
-  // beyond that plane a point must stay to remain more than the gap from the other face (gap
-  // plus that face's largest corner displacement; infinite where the face is degenerate and has
-  // no plane). Every point of a moving face stays within its largest corner displacement of its
-  // start plane, and a feature's points over the step are convex combinations of its corners'
-  // start and end positions, so a feature whose corners all lie beyond on one side stays more
-  // than the gap from the whole other face, hence from each of its features.
-  struct PlaneSides {
-    std::array<double, 3> cloth_lo, cloth_hi;  // the cloth face's corners against the other's plane
-    std::array<double, 3> other_lo, other_hi;  // the other face's corners against the cloth face's
-    double cloth_limit = 0.0, other_limit = 0.0;
-    // Corners by bit (1 << corner, in the faces' own order): whether either plane keeps the
-    // cloth face's corners `cloth_mask` and the other face's `other_mask` apart.
-    bool apart(int cloth_mask, int other_mask) const;
-  };
   // Where a triangle pair's points are over the step (cloth start and end; the other face's:
   // the cloth's again, or its body's), the gap within which two features' boxes must come
-  // for their pair to be listed, and optionally the pair's plane test.
+  // for their pair to be listed, optionally the pair's plane test, and the frame the boxes are
+  // swept in (end positions less `shift`, sweep_frame.h; null: the world).
   struct Sweep {
     const Positions* cloth_start;
     const Positions* cloth_end;
@@ -130,6 +109,7 @@ class ContactDetection {
     const Positions* other_end;
     double gap;
     const PlaneSides* planes = nullptr;
+    const Vec3* shift = nullptr;
   };
   // Feature pairs of cloth face `cloth_face` against `other_face`, a cloth face (body < 0) or a
   // face of body `body`, appended to out. With a sweep, pairs whose two features' boxes over
@@ -151,6 +131,8 @@ class ContactDetection {
   const FeatureOwnership& cloth_ownership() const { return cloth_own_; }
   const std::vector<Body>& bodies() const { return bodies_; }
   bool any_self() const { return any_self_; }
+  // Body b's sweep frame in the last swept collect (zero: the world's).
+  const Vec3& body_shift(int b) const { return body_shift_[b]; }
   bool any_body() const { return any_body_; }
   // Threads of the narrow filtering and expansion in collect(); its lists are the same for any count.
   void set_threads(int threads) { threads_ = threads; }
@@ -163,6 +145,15 @@ class ContactDetection {
   // pushing this step; CollisionStep::sharp_edges) with the cloth edges within their margin.
   // Body features at step.body_start.
   void point_pairs(const Positions& x, const CollisionStep& step, std::vector<FeaturePair>& pairs);
+  // The cloth's sweep frame for its pairs with itself (self_shift_) and, per body, the body's
+  // (body_shift_, its tree refitted over the step moving); whether any is not the world's.
+  bool choose_sweep_frames(const CollisionStep& step);
+  // The cloth's end positions in the frame moving by `shift` (shifted_end_): what the
+  // self-collision culling tests there. Its normal cones and boundary distances depend only on
+  // the cloth's own relative positions, which no frame changes; its displacements shrink.
+  const Positions& shifted_end(const Positions& end, const Vec3& shift);
+  // Cloth face f's box over the step in the frame moving by `shift` (the tree moving).
+  Aabb shifted_cloth_box(int f, const Vec3& shift) const;
   // Body::planes over start..end, unless those of the last call (Body::planes_at).
   void fit_body_planes(int body, const Positions& start, const Positions& end);
 
@@ -176,6 +167,11 @@ class ContactDetection {
   FeatureOwnership cloth_own_;
   AabbTree cloth_tree_;
   std::vector<Aabb> cloth_boxes_;
+  std::vector<Aabb> cloth_start_boxes_, cloth_end_boxes_;  // of a moving refit, as Body's
+  SweepFrame sweep_frame_;        // collect(): picks body_shift_
+  std::vector<Vec3> body_shift_;  // per body: the sweep frame of the step's swept lists
+  Vec3 self_shift_ = Vec3::Zero();  // the cloth's with itself
+  Positions shifted_end_;           // shifted_end()
   SweptPlanes cloth_planes_;  // collect(), collect_changed()
   std::vector<Body> bodies_;
   std::vector<std::pair<int, int>> scratch_pairs_;

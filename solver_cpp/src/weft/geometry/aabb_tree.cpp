@@ -77,16 +77,8 @@ int AabbTree::build_range(std::vector<int>& order, std::vector<Vec3>& centre, in
   return index;
 }
 
-void AabbTree::refit(const std::vector<Aabb>& leaves, int threads) {
-  auto fit = [&](int n) {
-    Node& node = nodes_[n];
-    if (node.leaf >= 0) {
-      node.box = leaves[node.leaf];
-    } else {
-      node.box = nodes_[node.left].box;
-      node.box.expand(nodes_[node.right].box);
-    }
-  };
+template <class Fit>
+void AabbTree::fit_bottom_up(Fit&& fit, int threads) {
   if (threads <= 1 || static_cast<int>(nodes_.size()) < 2 * kParallelBoxes) {
     for (int n : post_order_) fit(n);
     return;
@@ -96,6 +88,41 @@ void AabbTree::refit(const std::vector<Aabb>& leaves, int threads) {
 #pragma omp parallel for schedule(static) num_threads(threads) if (count >= kParallelBoxes / 4)
     for (int k = 0; k < count; ++k) fit(level[k]);
   }
+}
+
+void AabbTree::refit(const std::vector<Aabb>& leaves, int threads) {
+  moving_valid_ = false;
+  auto fit = [&](int n) {
+    Node& node = nodes_[n];
+    if (node.leaf >= 0) {
+      node.box = leaves[node.leaf];
+    } else {
+      node.box = nodes_[node.left].box;
+      node.box.expand(nodes_[node.right].box);
+    }
+  };
+  fit_bottom_up(fit, threads);
+}
+
+void AabbTree::refit(const std::vector<Aabb>& start, const std::vector<Aabb>& end, int threads) {
+  moving_.resize(nodes_.size());
+  moving_valid_ = true;
+  auto fit = [&](int n) {
+    Node& node = nodes_[n];
+    Moving& m = moving_[n];
+    if (node.leaf >= 0) {
+      m.start = start[node.leaf];
+      m.end = end[node.leaf];
+    } else {
+      m.start = moving_[node.left].start;
+      m.start.expand(moving_[node.right].start);
+      m.end = moving_[node.left].end;
+      m.end.expand(moving_[node.right].end);
+    }
+    node.box = m.start;
+    node.box.expand(m.end);
+  };
+  fit_bottom_up(fit, threads);
 }
 
 void AabbTree::topmost_marked(const std::vector<char>& marked, std::vector<int>& leaf_top) const {
@@ -125,8 +152,20 @@ void AabbTree::self_pairs(std::vector<std::pair<int, int>>& out, const std::vect
   run_tasks(split_tasks({{0, 0, true}}, *this, true, culled, 16 * threads), *this, true, culled, threads, out);
 }
 
+void AabbTree::self_pairs(const Vec3& shift, std::vector<std::pair<int, int>>& out, const std::vector<char>* culled,
+                          int threads) const {
+  if (nodes_.empty()) return;
+  if (threads <= 1) {
+    self_node(0, out, culled, &shift);
+    return;
+  }
+  run_tasks(split_tasks({{0, 0, true}}, *this, true, culled, 16 * threads, &shift), *this, true, culled, threads, out,
+            &shift);
+}
+
 std::vector<AabbTree::Task> AabbTree::split_tasks(std::vector<Task> tasks, const AabbTree& tb, bool same,
-                                                  const std::vector<char>* culled, int wanted) const {
+                                                  const std::vector<char>* culled, int wanted,
+                                                  const Vec3* shift) const {
   // Breadth-first: replace every task by its sub-tasks in the recursion's order until there are
   // enough (or nothing splits); leaf-leaf and non-overlapping tasks stay as they are.
   for (int round = 0; round < 32 && static_cast<int>(tasks.size()) < wanted; ++round) {
@@ -145,13 +184,14 @@ std::vector<AabbTree::Task> AabbTree::split_tasks(std::vector<Task> tasks, const
       }
       const Node& na = nodes_[t.a];
       const Node& nb = tb.nodes_[t.b];
-      if (!na.box.overlaps(nb.box)) continue;  // no pairs
+      const Aabb box_a = box_of(t.a, shift), box_b = tb.box_of(t.b, shift);
+      if (!box_a.overlaps(box_b)) continue;  // no pairs
       if (na.leaf >= 0 && nb.leaf >= 0) {
         next.push_back(t);
         continue;
       }
       const bool split_a =
-          nb.leaf >= 0 || (na.leaf < 0 && (na.box.hi - na.box.lo).sum() >= (nb.box.hi - nb.box.lo).sum());
+          nb.leaf >= 0 || (na.leaf < 0 && (box_a.hi - box_a.lo).sum() >= (box_b.hi - box_b.lo).sum());
       if (split_a) {
         next.push_back({na.left, t.b, false});
         next.push_back({na.right, t.b, false});
@@ -168,24 +208,25 @@ std::vector<AabbTree::Task> AabbTree::split_tasks(std::vector<Task> tasks, const
 }
 
 void AabbTree::run_tasks(const std::vector<Task>& tasks, const AabbTree& tb, bool same,
-                         const std::vector<char>* culled, int threads,
-                         std::vector<std::pair<int, int>>& out) const {
+                         const std::vector<char>* culled, int threads, std::vector<std::pair<int, int>>& out,
+                         const Vec3* shift) const {
   ordered_append(static_cast<std::int64_t>(tasks.size()), 1, threads, out,
                  [&](std::int64_t k, std::vector<std::pair<int, int>>& part) {
                    const Task& t = tasks[k];
                    if (t.self)
-                     self_node(t.a, part, culled);
+                     self_node(t.a, part, culled, shift);
                    else
-                     cross(t.a, tb, t.b, same, part);
+                     cross(t.a, tb, t.b, same, part, shift);
                  });
 }
 
-void AabbTree::self_node(int n, std::vector<std::pair<int, int>>& out, const std::vector<char>* culled) const {
+void AabbTree::self_node(int n, std::vector<std::pair<int, int>>& out, const std::vector<char>* culled,
+                         const Vec3* shift) const {
   const Node& node = nodes_[n];
   if (node.leaf >= 0 || (culled && (*culled)[n])) return;
-  self_node(node.left, out, culled);
-  self_node(node.right, out, culled);
-  cross(node.left, *this, node.right, true, out);
+  self_node(node.left, out, culled, shift);
+  self_node(node.right, out, culled, shift);
+  cross(node.left, *this, node.right, true, out, shift);
 }
 
 void AabbTree::pairs(const AabbTree& other, std::vector<std::pair<int, int>>& out, int threads) const {
@@ -197,12 +238,36 @@ void AabbTree::pairs(const AabbTree& other, std::vector<std::pair<int, int>>& ou
   run_tasks(split_tasks({{0, 0, false}}, other, false, nullptr, 16 * threads), other, false, nullptr, threads, out);
 }
 
-void AabbTree::cross(int a, const AabbTree& tb, int b, bool same, std::vector<std::pair<int, int>>& out) const {
+void AabbTree::pairs(const AabbTree& other, const Vec3& shift, std::vector<std::pair<int, int>>& out,
+                     int threads) const {
+  if (nodes_.empty() || other.nodes_.empty()) return;
+  if (threads <= 1) {
+    cross(0, other, 0, false, out, &shift);
+    return;
+  }
+  run_tasks(split_tasks({{0, 0, false}}, other, false, nullptr, 16 * threads, &shift), other, false, nullptr, threads,
+            out, &shift);
+}
+
+void AabbTree::cross(int a, const AabbTree& tb, int b, bool same, std::vector<std::pair<int, int>>& out,
+                     const Vec3* shift) const {
+  if (shift == nullptr) {
+    cross_with(a, tb, b, same, out, [this](int n) -> const Aabb& { return nodes_[n].box; },
+               [&tb](int n) -> const Aabb& { return tb.nodes_[n].box; });
+  } else {
+    cross_with(a, tb, b, same, out, [this, shift](int n) { return shifted_box(n, *shift); },
+               [&tb, shift](int n) { return tb.shifted_box(n, *shift); });
+  }
+}
+
+template <class BoxA, class BoxB>
+void AabbTree::cross_with(int a, const AabbTree& tb, int b, bool same, std::vector<std::pair<int, int>>& out,
+                          BoxA&& box_a, BoxB&& box_b) const {
   // Depth-first, the larger box split first, the two halves in order: an explicit stack that
   // visits (and lists) exactly as the recursion would, with each half's boxes tested before it
   // is pushed. Each step pushes at most two pairs and descends one level in one of the trees
   // (each under 64 levels deep, see query()), so 256 entries are enough.
-  if (!nodes_[a].box.overlaps(tb.nodes_[b].box)) return;
+  if (!box_a(a).overlaps(box_b(b))) return;
   std::pair<int, int> stack[256];
   int top = 0;
   stack[top++] = {a, b};
@@ -217,15 +282,16 @@ void AabbTree::cross(int a, const AabbTree& tb, int b, bool same, std::vector<st
         out.emplace_back(na.leaf, nb.leaf);
       continue;
     }
-    const bool split_a =
-        nb.leaf >= 0 || (na.leaf < 0 && (na.box.hi - na.box.lo).sum() >= (nb.box.hi - nb.box.lo).sum());
+    const auto& ba = box_a(ia);
+    const auto& bb = box_b(ib);
+    const bool split_a = nb.leaf >= 0 || (na.leaf < 0 && (ba.hi - ba.lo).sum() >= (bb.hi - bb.lo).sum());
     // Second half first onto the stack: the first is visited first.
     if (split_a) {
-      if (nodes_[na.right].box.overlaps(nb.box)) stack[top++] = {na.right, ib};
-      if (nodes_[na.left].box.overlaps(nb.box)) stack[top++] = {na.left, ib};
+      if (box_a(na.right).overlaps(bb)) stack[top++] = {na.right, ib};
+      if (box_a(na.left).overlaps(bb)) stack[top++] = {na.left, ib};
     } else {
-      if (na.box.overlaps(tb.nodes_[nb.right].box)) stack[top++] = {ia, nb.right};
-      if (na.box.overlaps(tb.nodes_[nb.left].box)) stack[top++] = {ia, nb.left};
+      if (ba.overlaps(box_b(nb.right))) stack[top++] = {ia, nb.right};
+      if (ba.overlaps(box_b(nb.left))) stack[top++] = {ia, nb.left};
     }
   }
 }

@@ -52,6 +52,23 @@ class AabbTree {
   // Same leaves, new boxes: recompute node boxes bottom-up (with threads, one height at a time,
   // each node from its children only: the same boxes for any thread count).
   void refit(const std::vector<Aabb>& leaves, int threads = 1);
+  // Same leaves, moving over a step: each leaf's box at the start and at the end. Node boxes are
+  // their union (the step's swept boxes, as refit(union) gives), and every node also keeps its
+  // start and end boxes, so that a traversal can test the boxes swept in a frame that moves
+  // with a constant velocity (pairs and query with a shift). A plain refit drops them.
+  void refit(const std::vector<Aabb>& start, const std::vector<Aabb>& end, int threads = 1);
+  bool moving() const { return moving_valid_; }
+  // Node n's box over the step seen from a frame that moves by `shift` over it: the union of its
+  // start box and its end box less the shift (the tree must be moving()). A point moving
+  // linearly from s to e moves from s to e - shift in that frame, inside this box; two points'
+  // distance at each instant is the same in either frame. Shift zero: the node's box.
+  Aabb shifted_box(int n, const Vec3& shift) const {
+    Aabb box = moving_[n].end;
+    box.lo -= shift;
+    box.hi -= shift;
+    box.expand(moving_[n].start);
+    return box;
+  }
   bool empty() const { return nodes_.empty(); }
 
   // The hierarchy (node 0 is the root), for per-node data kept outside the tree.
@@ -67,12 +84,19 @@ class AabbTree {
   // the same list, in the same order, for any thread count.
   void self_pairs(std::vector<std::pair<int, int>>& out, const std::vector<char>* culled = nullptr,
                   int threads = 1) const;
+  // The same in the frame moving by `shift` (shifted_box; the tree must be moving()).
+  void self_pairs(const Vec3& shift, std::vector<std::pair<int, int>>& out, const std::vector<char>* culled = nullptr,
+                  int threads = 1) const;
   // Per leaf, the topmost node above it (or itself) with marked[node] != 0, -1 where none. Two
   // leaves share a marked node exactly when their entries are equal and not -1, so a pair
   // that self_pairs(out, &marked) skips is one whose leaves have the same entry.
   void topmost_marked(const std::vector<char>& marked, std::vector<int>& leaf_top) const;
   // Every pair (i of this tree, j of other) whose boxes overlap.
   void pairs(const AabbTree& other, std::vector<std::pair<int, int>>& out, int threads = 1) const;
+  // Every pair whose boxes overlap in the frame moving by `shift` (shifted_box; both trees
+  // moving()): a pair listed by pairs() whose leaves' relative motion keeps them apart is not.
+  // The same list for any thread count.
+  void pairs(const AabbTree& other, const Vec3& shift, std::vector<std::pair<int, int>>& out, int threads = 1) const;
   // Box of all leaves (the tree must not be empty).
   const Aabb& bounds() const { return nodes_[0].box; }
   // Nearest-first search around point p: visit(leaf) is called for leaves in an order that
@@ -104,20 +128,13 @@ class AabbTree {
   // visit(leaf) for every leaf whose box overlaps `box` (closed boxes).
   template <class Visit>
   void query(const Aabb& box, Visit&& visit) const {
-    if (nodes_.empty()) return;
-    int stack[64];  // depth of a median-split tree over < 2^62 leaves
-    int top = 0;
-    stack[top++] = 0;
-    while (top > 0) {
-      const Node& node = nodes_[stack[--top]];
-      if (!node.box.overlaps(box)) continue;
-      if (node.leaf >= 0) {
-        visit(node.leaf);
-      } else {
-        stack[top++] = node.left;
-        stack[top++] = node.right;
-      }
-    }
+    query_with([this](int n) -> const Aabb& { return nodes_[n].box; }, box, visit);
+  }
+  // The same in the frame moving by `shift` (shifted_box; the tree must be moving()), `box`
+  // being the query's box in that frame.
+  template <class Visit>
+  void query(const Aabb& box, const Vec3& shift, Visit&& visit) const {
+    query_with([this, &shift](int n) { return shifted_box(n, shift); }, box, visit);
   }
 
  private:
@@ -126,9 +143,40 @@ class AabbTree {
     int left = -1, right = -1;  // children, -1 for leaves
     int leaf = -1;              // leaf index for leaves
   };
+  struct Moving {
+    Aabb start, end;
+  };
+  template <class NodeBox, class Visit>
+  void query_with(NodeBox&& node_box, const Aabb& box, Visit& visit) const {
+    if (nodes_.empty()) return;
+    int stack[64];  // depth of a median-split tree over < 2^62 leaves
+    int top = 0;
+    stack[top++] = 0;
+    while (top > 0) {
+      const int n = stack[--top];
+      if (!node_box(n).overlaps(box)) continue;
+      const Node& node = nodes_[n];
+      if (node.leaf >= 0) {
+        visit(node.leaf);
+      } else {
+        stack[top++] = node.left;
+        stack[top++] = node.right;
+      }
+    }
+  }
+  // Node n's box as a traversal sees it: its own, or shifted_box when shift is given.
+  Aabb box_of(int n, const Vec3* shift) const { return shift ? shifted_box(n, *shift) : nodes_[n].box; }
   int build_range(std::vector<int>& order, std::vector<Vec3>& centre, int begin, int end);
-  void self_node(int n, std::vector<std::pair<int, int>>& out, const std::vector<char>* culled) const;
-  void cross(int a, const AabbTree& tb, int b, bool same, std::vector<std::pair<int, int>>& out) const;
+  // fit(n) for every node, children before parents (with threads, one height at a time).
+  template <class Fit>
+  void fit_bottom_up(Fit&& fit, int threads);
+  template <class BoxA, class BoxB>
+  void cross_with(int a, const AabbTree& tb, int b, bool same, std::vector<std::pair<int, int>>& out, BoxA&& box_a,
+                  BoxB&& box_b) const;
+  void self_node(int n, std::vector<std::pair<int, int>>& out, const std::vector<char>* culled,
+                 const Vec3* shift = nullptr) const;
+  void cross(int a, const AabbTree& tb, int b, bool same, std::vector<std::pair<int, int>>& out,
+             const Vec3* shift = nullptr) const;
   // A piece of the traversal: the self-pairs of node a (self) or the pairs across (a, b).
   struct Task {
     int a, b;
@@ -136,11 +184,13 @@ class AabbTree {
   };
   // Tasks whose results, concatenated in order, are the whole traversal's.
   std::vector<Task> split_tasks(std::vector<Task> tasks, const AabbTree& tb, bool same,
-                                const std::vector<char>* culled, int wanted) const;
+                                const std::vector<char>* culled, int wanted, const Vec3* shift = nullptr) const;
   void run_tasks(const std::vector<Task>& tasks, const AabbTree& tb, bool same, const std::vector<char>* culled,
-                 int threads, std::vector<std::pair<int, int>>& out) const;
+                 int threads, std::vector<std::pair<int, int>>& out, const Vec3* shift = nullptr) const;
 
   std::vector<Node> nodes_;
+  std::vector<Moving> moving_;  // per node, valid after refit(start, end) until a plain refit
+  bool moving_valid_ = false;
   std::vector<int> post_order_;  // children before parents, for refitting
   std::vector<std::vector<int>> by_height_;  // nodes by height above the leaves (leaves: 0), for refitting
 };
