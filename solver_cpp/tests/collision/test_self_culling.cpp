@@ -50,6 +50,38 @@ TEST(SelfCulling, AFlatSheetHasNoSelfPairs) {
   EXPECT_GT(all.size(), 100u);
 }
 
+// Over a step a patch is tested in the frame that moves with its boundary (or in the world,
+// whichever moves it less): a whole sheet sliding 5 cm in its own plane, five times its grid
+// spacing, is still one patch that cannot touch itself; its right half sliding over its left
+// half is not.
+TEST(SelfCulling, APatchIsTestedInTheFrameThatMovesWithIt) {
+  const Grid grid(12);
+  const double margin = 0.002;
+  auto culled_root = [&](const Positions& end, size_t* pairs) {
+    std::vector<Aabb> boxes;
+    triangle_boxes(grid.faces, grid.x, end, std::vector<double>(grid.faces.rows(), margin), boxes);
+    AabbTree tree;
+    tree.build(boxes);
+    SelfCollisionCulling culling;
+    culling.rebuild(tree, grid.faces, std::vector<char>(grid.faces.rows(), 1));
+    culling.update(tree, grid.faces, grid.x, end, margin);
+    std::vector<std::pair<int, int>> kept;
+    tree.self_pairs(kept, &culling.culled());
+    *pairs = kept.size();
+    return culling.culled()[0] != 0;
+  };
+  Positions sliding = grid.x;
+  sliding.col(0).array() += 0.05;
+  size_t pairs = 0;
+  EXPECT_TRUE(culled_root(sliding, &pairs));
+  EXPECT_EQ(pairs, 0u);
+  Positions over = grid.x;
+  for (int v = 0; v < over.rows(); ++v)
+    if (grid.x(v, 0) > 0.055) over(v, 0) -= 0.08;
+  EXPECT_FALSE(culled_root(over, &pairs));
+  EXPECT_GT(pairs, 100u);
+}
+
 TEST(SelfCulling, ASheetFoldedOverItselfKeepsThePairsAcrossTheFold) {
   // Fold the grid about x = 5.5 cm: the far half lies 4 mm above the near half, upside down.
   Grid grid(12);

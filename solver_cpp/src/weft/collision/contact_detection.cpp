@@ -82,11 +82,6 @@ void ContactDetection::refit_cloth(const Positions& start, const Positions& end,
   cloth_tree_.refit(cloth_start_boxes_, cloth_end_boxes_, threads_);
 }
 
-const Positions& ContactDetection::shifted_end(const Positions& end, const Vec3& shift) {
-  shifted_end_ = end.rowwise() - shift.transpose();
-  return shifted_end_;
-}
-
 Aabb ContactDetection::shifted_cloth_box(int f, const Vec3& shift) const {
   Aabb box = cloth_end_boxes_[f];
   box.lo -= shift;
@@ -308,8 +303,7 @@ void ContactDetection::collect(CollisionStep& step, const ContactFilter& filter,
     const Vec3* shift = swept && self_shift_ != Vec3::Zero() ? &self_shift_ : nullptr;
     const std::vector<char>* culled = nullptr;
     if (self_culling_) {
-      culling_.update(cloth_tree_, cloth_faces_, x, shift ? shifted_end(end, *shift) : end, fraction * largest_margin_,
-                      threads_);
+      culling_.update(cloth_tree_, cloth_faces_, x, end, fraction * largest_margin_, threads_);
       culled = &culling_.culled();
     }
     if (shift)
@@ -508,13 +502,10 @@ void ContactDetection::collect_changed(CollisionStep& step, const ContactFilter&
   if (any_self_ && changed_count > 0) {
     leaf_culled_top_.clear();
     if (self_culling_) {
-      // In the cloth's sweep frame, as the swept collect culled.
-      const Positions& cull_end = self_shift_ != Vec3::Zero() ? shifted_end(end, self_shift_) : end;
       if (incremental)
-        culling_.update_changed(cloth_tree_, cloth_faces_, x, cull_end, fraction * largest_margin_, face_changed_,
-                                threads_);
+        culling_.update_changed(cloth_tree_, cloth_faces_, x, end, fraction * largest_margin_, face_changed_, threads_);
       else
-        culling_.update(cloth_tree_, cloth_faces_, x, cull_end, fraction * largest_margin_, threads_);
+        culling_.update(cloth_tree_, cloth_faces_, x, end, fraction * largest_margin_, threads_);
       cloth_tree_.topmost_marked(culling_.culled(), leaf_culled_top_);
     }
     const Vec3* shift = self_shift_ != Vec3::Zero() ? &self_shift_ : nullptr;

@@ -148,10 +148,6 @@ class ContactDetection {
   // The cloth's sweep frame for its pairs with itself (self_shift_) and, per body, the body's
   // (body_shift_, its tree refitted over the step moving); whether any is not the world's.
   bool choose_sweep_frames(const CollisionStep& step);
-  // The cloth's end positions in the frame moving by `shift` (shifted_end_): what the
-  // self-collision culling tests there. Its normal cones and boundary distances depend only on
-  // the cloth's own relative positions, which no frame changes; its displacements shrink.
-  const Positions& shifted_end(const Positions& end, const Vec3& shift);
   // Cloth face f's box over the step in the frame moving by `shift` (the tree moving).
   Aabb shifted_cloth_box(int f, const Vec3& shift) const;
   // Body::planes over start..end, unless those of the last call (Body::planes_at).
@@ -171,7 +167,6 @@ class ContactDetection {
   SweepFrame sweep_frame_;        // collect(): picks body_shift_
   std::vector<Vec3> body_shift_;  // per body: the sweep frame of the step's swept lists
   Vec3 self_shift_ = Vec3::Zero();  // the cloth's with itself
-  Positions shifted_end_;           // shifted_end()
   SweptPlanes cloth_planes_;  // collect(), collect_changed()
   std::vector<Body> bodies_;
   std::vector<std::pair<int, int>> scratch_pairs_;

@@ -255,11 +255,29 @@ bool SelfCollisionCulling::boundary_clear(int node, const Vec3& axis, const Posi
   std::vector<double> motion(count, 0.0);  // largest projected displacement of the edge's ends
   std::vector<std::array<double, 2>> extent(count);  // along `sweep`, widened by motion and margin
   std::vector<int> order(count);
+  // The patch cannot come near itself whatever frame its motion is seen from (the distances
+  // between its points are the same in all): displacements are measured in the world or in the
+  // frame of the boundary's mean displacement, whichever moves it least (a patch carried along
+  // by a walking character, or falling with the rest of the sheet, hardly moves in its own).
+  Vec3 mean = Vec3::Zero();
+  if (&x_end != &x) {
+    for (const auto& edge : edges)
+      for (int v : edge) mean += row3(x_end, v) - row3(x, v);
+    mean /= 2.0 * std::max(count, 1);
+    double world = 0.0, own = 0.0;
+    for (const auto& edge : edges)
+      for (int v : edge) {
+        const Vec3 d = row3(x_end, v) - row3(x, v);
+        world = std::max(world, project(d).squaredNorm());
+        own = std::max(own, project(d - mean).squaredNorm());
+      }
+    if (!(own < world)) mean = Vec3::Zero();
+  }
   for (int k = 0; k < count; ++k) {
     for (int e = 0; e < 2; ++e) {
       const int v = edges[k][e];
       segment[k][e] = project(row3(x, v));
-      motion[k] = std::max(motion[k], project(row3(x_end, v) - row3(x, v)).norm());
+      motion[k] = std::max(motion[k], project(row3(x_end, v) - row3(x, v) - mean).norm());
     }
     const double a = sweep.dot(segment[k][0]), b = sweep.dot(segment[k][1]);
     extent[k] = {std::min(a, b) - motion[k] - 0.5 * margin, std::max(a, b) + motion[k] + 0.5 * margin};

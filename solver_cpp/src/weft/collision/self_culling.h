@@ -9,7 +9,10 @@
 // so a cone containing n0, m and n1 holds all of the step's normals. The patch cannot come
 // within `margin` of itself during the step either, when its projected boundary segments that
 // share no vertex stay more than margin apart: their start distance minus the largest projected
-// displacement of their end points.
+// displacement of their end points. Displacements are measured in the world or in the frame of
+// the boundary's mean displacement, whichever is smaller: distances within the patch are the
+// same in every frame, and a patch carried along (a walking character's dress, a falling
+// sheet) hardly moves in its own.
 //
 // The patches are the nodes of the cloth's AABB tree (leaf i is face i). Their topology (is the
 // node's face set connected across shared edges, which edges bound it, which faces it holds)
