@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <limits>
 #include <random>
 #include <set>
 
@@ -47,6 +48,14 @@ TEST(SweepFrame, TheShiftIsTheMotionMostPointsShare) {
   EXPECT_EQ(frame.shift(body, body, reach, far, far_falling, 1e-4), Vec3::Zero());
   // Below `least`: the world.
   EXPECT_EQ(frame.shift(body, body, reach, cloth, falling, 0.006), Vec3::Zero());
+  // Non-finite motion takes no part (a NaN shift would drop every pair): the body's broken x
+  // displacements leave the cloth's carry; nothing finite at all leaves the world.
+  Positions broken = body_end;
+  broken.col(0).setConstant(std::numeric_limits<double>::quiet_NaN());
+  EXPECT_LT((frame.shift(body, broken, reach, cloth, cloth_end, 1e-4) - carry).norm(), 1e-12);
+  Positions broken_cloth = cloth_end;
+  broken_cloth.col(0).setConstant(std::numeric_limits<double>::quiet_NaN());
+  EXPECT_EQ(frame.shift(body, broken, reach, cloth, broken_cloth, 1e-4), Vec3::Zero());
   // The cloth's own shift: every vertex.
   EXPECT_NEAR(frame.shift(cloth, falling, 1e-4).z(), -0.005, 1e-12);
 }

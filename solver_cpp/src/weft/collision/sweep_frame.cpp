@@ -1,6 +1,7 @@
 #include "weft/collision/sweep_frame.h"
 
 #include <algorithm>
+#include <cmath>
 #include <numeric>
 
 namespace weft {
@@ -25,11 +26,17 @@ Vec3 SweepFrame::median(const Positions* body_start, const Positions* body_end, 
   const size_t count = static_cast<size_t>(body_count) + near_.size();
   if (count == 0) return Vec3::Zero();
   Vec3 shift;
+  // Non-finite displacements (which the step reports elsewhere) take no part: the median is
+  // over the finite ones, so no box is shifted by something that would fail every overlap test.
+  auto add = [this](double d) {
+    if (std::isfinite(d)) displaced_.push_back(d);
+  };
   for (int axis = 0; axis < 3; ++axis) {
     displaced_.clear();
-    for (int v = 0; v < body_count; ++v) displaced_.push_back((*body_end)(v, axis) - (*body_start)(v, axis));
-    for (int v : near_) displaced_.push_back(x_end(v, axis) - x(v, axis));
-    const auto middle = displaced_.begin() + static_cast<std::ptrdiff_t>(count / 2);
+    for (int v = 0; v < body_count; ++v) add((*body_end)(v, axis) - (*body_start)(v, axis));
+    for (int v : near_) add(x_end(v, axis) - x(v, axis));
+    if (displaced_.empty()) return Vec3::Zero();
+    const auto middle = displaced_.begin() + static_cast<std::ptrdiff_t>(displaced_.size() / 2);
     std::nth_element(displaced_.begin(), middle, displaced_.end());
     shift[axis] = *middle;
   }
