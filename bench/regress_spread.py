@@ -9,7 +9,7 @@ unperturbed run) and prints, per copy and over all of them, the figures `weft re
 the largest per-frame RMS and max position error against the stored reference, and the largest
 edge strain. A threshold should sit above the spread, a change should move its mean.
 
-    python -m bench.regress_spread --scenes thin_limb --copies 8
+    python -m bench.regress_spread --scenes thin_limb --copies 8 [--json PATH]
 """
 
 from __future__ import annotations
@@ -56,7 +56,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--scenes", default="thin_limb", help="comma-separated regression scenes")
     parser.add_argument("--copies", type=int, default=8, help="perturbed copies besides the unperturbed run")
     parser.add_argument("--threads", type=int, default=2)
+    parser.add_argument("--json", type=Path, help="also write the copies' figures here")
     args = parser.parse_args(argv)
+    if args.copies < 1:
+        parser.error(f"--copies: must be at least 1, got {args.copies}")
     names = [n for n in args.scenes.split(",") if n]
     unknown = [n for n in names if n not in SCENES]
     if unknown:
@@ -67,15 +70,19 @@ def main(argv: list[str] | None = None) -> int:
     factors = sorted(thickness_factors(args.copies) + [1.0])
     print("| scene | thickness factor | pos. error RMS (mm) | max (mm) | strain |")
     print("|---|---|---|---|---|")
+    results: dict[str, list[dict[str, float]]] = {}
     for name in names:
         reference = references.load(name)
         copies = [run_copy(name, f, args.threads, reference) for f in factors]
+        results[name] = copies
         for c in copies:
             stopped = " (stopped)" if c["failed"] else ""
             print(f"| {name} | {c['factor']:.3f} | {c['rms_mm']:.1f}{stopped} | {c['max_mm']:.1f} | {c['strain']:.2f} |")
         rms = np.array([c["rms_mm"] for c in copies])
         print(f"| {name} | all {len(copies)} | mean {rms.mean():.1f}, range {rms.min():.1f}-{rms.max():.1f} | "
               f"{max(c['max_mm'] for c in copies):.1f} | {max(c['strain'] for c in copies):.2f} |")
+    if args.json:
+        args.json.write_text(json.dumps(results, indent=2))
     return 0
 
 
