@@ -1,6 +1,7 @@
 #include "weft/collision/swept_planes.h"
 
 #include <algorithm>
+#include <cmath>
 #include <limits>
 
 namespace weft {
@@ -100,6 +101,10 @@ bool triangles_apart(const SweptPlanes& pa, int a, const Faces& fa, const Positi
                      const SweptPlanes& pb, int b, const Faces& fb, const Positions& bs, const Positions& be,
                      double gap, bool exact, PlaneSides& sides, const Vec3* shift) {
   const double slack = exact ? kPlaneSlack : 0.0;
+  // CCD's minimum separation is in the infinity norm of the gap vector (ccd.h), which is down to
+  // 1/sqrt(3) of the Euclidean distance: for CCD's lists the planes keep out only what stays
+  // more than sqrt(3) gaps away.
+  if (!exact) gap *= std::sqrt(3.0);
   corner_sides(pa, a, motion_of(pa, a, fa, as, ae, shift), fb, b, bs, be, shift, gap, slack, sides.other_lo,
                sides.other_hi, sides.other_limit);
   if (beyond(sides.other_lo, sides.other_hi, sides.other_limit, 7)) return true;
