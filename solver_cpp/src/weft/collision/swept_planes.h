@@ -52,9 +52,9 @@ struct PlaneSides {
 // object: static): true when either plane keeps the whole triangles apart (then `sides` may be
 // half filled: B's corners against A's plane are measured first, and a separating plane ends
 // the test). `exact`: the pair's list is the proximity list, whose response acts exactly within
-// the gap (the limit gets kPlaneSlack); CCD's lists keep the plain limit: CCD itself reports
-// pairs somewhat beyond its minimum separation (its tolerance grows with each query's extent),
-// so what they list is what they always listed. With a shift the test is
+// the gap (the limit gets kPlaneSlack); for CCD's lists (not exact) the gap is taken sqrt(3)
+// times: CCD measures its minimum separation in the infinity norm of the gap vector, down to
+// 1/sqrt(3) of the Euclidean distance bounded here. With a shift the test is
 // made in the frame that moves by `shift` over the step (sweep_frame.h): end positions less
 // the shift, each face's motion measured there.
 bool triangles_apart(const SweptPlanes& pa, int a, const Faces& fa, const Positions& as, const Positions& ae,
