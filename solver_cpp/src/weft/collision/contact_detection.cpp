@@ -83,11 +83,7 @@ void ContactDetection::refit_cloth(const Positions& start, const Positions& end,
 }
 
 Aabb ContactDetection::shifted_cloth_box(int f, const Vec3& shift) const {
-  Aabb box = cloth_end_boxes_[f];
-  box.lo -= shift;
-  box.hi -= shift;
-  box.expand(cloth_start_boxes_[f]);
-  return box;
+  return swept_box(cloth_start_boxes_[f], cloth_end_boxes_[f], shift);
 }
 
 bool ContactDetection::choose_sweep_frames(const CollisionStep& step) {

@@ -23,8 +23,6 @@ Vec3 SweepFrame::shift(const Positions& x, const Positions& x_end, double least)
 Vec3 SweepFrame::median(const Positions* body_start, const Positions* body_end, const Positions& x,
                         const Positions& x_end, double least) {
   const int body_count = body_start ? static_cast<int>(body_start->rows()) : 0;
-  const size_t count = static_cast<size_t>(body_count) + near_.size();
-  if (count == 0) return Vec3::Zero();
   Vec3 shift;
   // Non-finite displacements (which the step reports elsewhere) take no part: the median is
   // over the finite ones, so no box is shifted by something that would fail every overlap test.

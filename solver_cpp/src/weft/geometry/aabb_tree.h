@@ -36,6 +36,18 @@ struct Aabb {
   }
 };
 
+// The box over a step of something whose box is `start` at its start and `end` at its end, seen
+// from a frame that moves by `shift` over the step: a point moving linearly from s to e moves
+// from s to e - shift there, and two points' distance at each instant is the same in either
+// frame. Shift zero: the plain swept box.
+inline Aabb swept_box(const Aabb& start, const Aabb& end, const Vec3& shift) {
+  Aabb box = end;
+  box.lo -= shift;
+  box.hi -= shift;
+  box.expand(start);
+  return box;
+}
+
 // Boxes of triangles spanning two configurations (start and end of a step), widened by a
 // per-triangle margin. end may be the same object as start (static boxes). Each box on its own:
 // the same for any thread count.
@@ -58,17 +70,9 @@ class AabbTree {
   // with a constant velocity (pairs and query with a shift). A plain refit drops them.
   void refit(const std::vector<Aabb>& start, const std::vector<Aabb>& end, int threads = 1);
   bool moving() const { return moving_valid_; }
-  // Node n's box over the step seen from a frame that moves by `shift` over it: the union of its
-  // start box and its end box less the shift (the tree must be moving()). A point moving
-  // linearly from s to e moves from s to e - shift in that frame, inside this box; two points'
-  // distance at each instant is the same in either frame. Shift zero: the node's box.
-  Aabb shifted_box(int n, const Vec3& shift) const {
-    Aabb box = moving_[n].end;
-    box.lo -= shift;
-    box.hi -= shift;
-    box.expand(moving_[n].start);
-    return box;
-  }
+  // Node n's box over the step seen from a frame that moves by `shift` over it (swept_box; the
+  // tree must be moving()). Shift zero: the node's box.
+  Aabb shifted_box(int n, const Vec3& shift) const { return swept_box(moving_[n].start, moving_[n].end, shift); }
   bool empty() const { return nodes_.empty(); }
 
   // The hierarchy (node 0 is the root), for per-node data kept outside the tree.
