@@ -200,3 +200,44 @@ TEST(SelfCulling, AnIncrementalUpdateCullsAsAFullOne) {
 
 }  // namespace
 }  // namespace weft
+
+namespace weft {
+namespace {
+
+// A tree whose grid cells are pairs of sibling faces (AabbTree::build with
+// pair_faces_across_edges) has edge-connected nodes, so a sheet bent into a half cylinder, too
+// curved to be one patch, is culled in large patches: it lists less than half the pairs that a
+// tree of box centres lists (the two faces of a cell share a box, and split by index they made
+// nodes of faces that touch at corners only, which are never culled).
+TEST(SelfCulling, ATreeOfPairedCellsCullsACurvedSheetInLargePatches) {
+  const int n = 24;
+  Grid grid(n);
+  const double radius = 0.23 / 2.6;  // 2.6 radians of arc over the sheet
+  for (int v = 0; v < grid.x.rows(); ++v) {
+    const double s = grid.x(v, 0), z = grid.x(v, 2);
+    grid.x.row(v) << radius * std::sin(s / radius), radius * (1.0 - std::cos(s / radius)), z;
+  }
+  const double margin = 0.002;
+  auto listed = [&](bool paired) {
+    std::vector<Aabb> boxes;
+    triangle_boxes(grid.faces, grid.x, grid.x, std::vector<double>(grid.faces.rows(), margin), boxes);
+    AabbTree tree;
+    if (paired)
+      tree.build(boxes, pair_faces_across_edges(grid.faces, grid.x));
+    else
+      tree.build(boxes);
+    SelfCollisionCulling culling;
+    culling.rebuild(tree, grid.faces, std::vector<char>(grid.faces.rows(), 1));
+    culling.update(tree, grid.faces, grid.x, grid.x, margin);
+    EXPECT_EQ(culling.culled()[0], 0);  // too curved to be one patch
+    std::vector<std::pair<int, int>> pairs;
+    tree.self_pairs(pairs, &culling.culled());
+    return pairs.size();
+  };
+  const size_t paired = listed(true), plain = listed(false);
+  EXPECT_GT(paired, 0u);
+  EXPECT_LT(2 * paired, plain) << paired << " against " << plain;
+}
+
+}  // namespace
+}  // namespace weft

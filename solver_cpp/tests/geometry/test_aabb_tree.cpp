@@ -6,7 +6,9 @@
 #include <cmath>
 #include <random>
 #include <set>
+#include <stdexcept>
 
+#include "support/grid_faces.h"
 #include "weft/geometry/aabb_tree.h"
 
 using namespace weft;
@@ -222,4 +224,44 @@ TEST(AabbTree, ShiftedTraversalsListTheBoxesOverlappingInTheMovingFrame) {
   // A plain refit leaves the tree not moving.
   ta.refit(a);
   EXPECT_FALSE(ta.moving());
+}
+
+// A grid's faces pair into its cells (across each cell's diagonal, its longest edge), and a tree
+// built with those partners has each pair under a node of its own and lists exactly the
+// overlapping boxes, as one without them does. Partners that do not pair mutually are refused.
+TEST(AabbTree, PairedLeavesAreSiblingsAndTraversalsStayExact) {
+  const int n = 9;
+  const Faces faces = weft::testing::grid_faces(n);
+  Positions x(n * n, 3);
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j) x.row(i * n + j) << 0.01 * i, 0.002 * std::sin(1.3 * i + 0.7 * j), 0.01 * j;
+  const std::vector<int> partner = pair_faces_across_edges(faces, x);
+  ASSERT_EQ(partner.size(), static_cast<size_t>(faces.rows()));
+  for (int f = 0; f < faces.rows(); ++f) EXPECT_EQ(partner[f], f ^ 1) << f;  // the cell's other face
+  std::vector<Aabb> boxes;
+  triangle_boxes(faces, x, x, std::vector<double>(faces.rows(), 0.004), boxes);
+  AabbTree paired, plain;
+  paired.build(boxes, partner);
+  plain.build(boxes);
+  std::vector<int> parent(paired.node_count(), -1);
+  for (int node = 0; node < paired.node_count(); ++node)
+    if (paired.leaf(node) < 0) parent[paired.left(node)] = parent[paired.right(node)] = node;
+  std::vector<int> leaf_parent(faces.rows(), -1);
+  for (int node = 0; node < paired.node_count(); ++node)
+    if (paired.leaf(node) >= 0) leaf_parent[paired.leaf(node)] = parent[node];
+  for (int f = 0; f < faces.rows(); ++f) EXPECT_EQ(leaf_parent[f], leaf_parent[partner[f]]) << f;
+  std::vector<std::pair<int, int>> a, b;
+  paired.self_pairs(a);
+  plain.self_pairs(b);
+  auto normalised = [](std::vector<std::pair<int, int>> v) {
+    for (auto& p : v)
+      if (p.first > p.second) std::swap(p.first, p.second);
+    std::sort(v.begin(), v.end());
+    return v;
+  };
+  ASSERT_GT(a.size(), 100u);
+  EXPECT_EQ(normalised(a), normalised(b));
+  std::vector<int> one_sided(faces.rows(), -1);
+  one_sided[0] = 1;
+  EXPECT_THROW(paired.build(boxes, one_sided), std::invalid_argument);
 }

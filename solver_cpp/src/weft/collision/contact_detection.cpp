@@ -28,7 +28,9 @@ ContactDetection::ContactDetection(const Faces& cloth_faces, const Positions& x,
   for (double m : face_margin_) largest_margin_ = std::max(largest_margin_, m);
   cloth_own_ = assign_features(cloth_faces_, static_cast<int>(x.rows()));
   triangle_boxes(cloth_faces_, x, x, face_margin_, cloth_boxes_);
-  cloth_tree_.build(cloth_boxes_);
+  // Faces paired with an edge neighbour (pair_faces_across_edges) are siblings in the tree, so
+  // that its nodes are edge-connected patches, which the self-collision culling needs.
+  cloth_tree_.build(cloth_boxes_, pair_faces_across_edges(cloth_faces_, x));
   if (any_self_ && self_culling_) culling_.rebuild(cloth_tree_, cloth_faces_, face_self_);
   bodies_.resize(bodies.size());
   body_shift_.assign(bodies.size(), Vec3::Zero());

@@ -1,7 +1,10 @@
 #include "weft/geometry/aabb_tree.h"
 
 #include <algorithm>
+#include <array>
 #include <cstdint>
+#include <stdexcept>
+#include <vector>
 
 #include "weft/common/ordered_append.h"
 
@@ -31,18 +34,82 @@ Aabb triangle_box(const Faces& faces, const Positions& start, const Positions& e
   return box;
 }
 
-void AabbTree::build(const std::vector<Aabb>& leaves) {
+std::vector<int> pair_faces_across_edges(const Faces& faces, const Positions& x) {
+  const int face_count = static_cast<int>(faces.rows());
+  // Edges as (lower vertex, higher vertex, face), sorted: a manifold edge's two faces adjacent.
+  std::vector<std::array<int, 3>> edges;
+  edges.reserve(3 * static_cast<size_t>(face_count));
+  for (int f = 0; f < face_count; ++f)
+    for (int c = 0; c < 3; ++c) {
+      const int a = faces(f, c), b = faces(f, (c + 1) % 3);
+      edges.push_back({std::min(a, b), std::max(a, b), f});
+    }
+  std::sort(edges.begin(), edges.end());
+  // Per face and corner c: the face across edge (c, c + 1), or -1.
+  std::vector<std::array<int, 3>> across(face_count, {-1, -1, -1});
+  auto corner_of = [&](int f, int a, int b) {
+    for (int c = 0; c < 3; ++c) {
+      const int p = faces(f, c), q = faces(f, (c + 1) % 3);
+      if (std::min(p, q) == a && std::max(p, q) == b) return c;
+    }
+    return -1;
+  };
+  for (size_t k = 0; k < edges.size();) {
+    size_t end = k + 1;
+    while (end < edges.size() && edges[end][0] == edges[k][0] && edges[end][1] == edges[k][1]) ++end;
+    if (end - k == 2) {
+      const int f = edges[k][2], g = edges[k + 1][2];
+      if (f != g) {
+        across[f][corner_of(f, edges[k][0], edges[k][1])] = g;
+        across[g][corner_of(g, edges[k][0], edges[k][1])] = f;
+      }
+    }
+    k = end;
+  }
+  std::vector<int> partner(face_count, -1);
+  for (int f = 0; f < face_count; ++f) {
+    if (partner[f] >= 0) continue;
+    std::array<int, 3> corner{0, 1, 2};
+    std::array<double, 3> length;
+    for (int c = 0; c < 3; ++c) length[c] = (row3(x, faces(f, (c + 1) % 3)) - row3(x, faces(f, c))).squaredNorm();
+    std::stable_sort(corner.begin(), corner.end(), [&](int a, int b) { return length[a] > length[b]; });
+    for (int c : corner) {
+      const int g = across[f][c];
+      if (g >= 0 && partner[g] < 0) {
+        partner[f] = g;
+        partner[g] = f;
+        break;
+      }
+    }
+  }
+  return partner;
+}
+
+void AabbTree::build(const std::vector<Aabb>& leaves, const std::vector<int>& partner) {
   nodes_.clear();
   post_order_.clear();
   if (leaves.empty()) return;
-  std::vector<int> order(leaves.size());
+  const int count = static_cast<int>(leaves.size());
+  if (!partner.empty()) {
+    if (static_cast<int>(partner.size()) != count) throw std::invalid_argument("AabbTree::build: one partner per leaf");
+    for (int i = 0; i < count; ++i)
+      if (partner[i] >= count || (partner[i] >= 0 && (partner[i] == i || partner[partner[i]] != i)))
+        throw std::invalid_argument("AabbTree::build: partners must pair leaves mutually");
+  }
+  // One entry per cluster (a leaf, or a pair under its lower index), at its box's centre.
+  std::vector<int> order;
   std::vector<Vec3> centre(leaves.size());
-  for (size_t i = 0; i < leaves.size(); ++i) {
-    order[i] = static_cast<int>(i);
-    centre[i] = 0.5 * (leaves[i].lo + leaves[i].hi);
+  order.reserve(leaves.size());
+  for (int i = 0; i < count; ++i) {
+    const int other = partner.empty() ? -1 : partner[i];
+    if (other >= 0 && other < i) continue;
+    Aabb box = leaves[i];
+    if (other >= 0) box.expand(leaves[other]);
+    order.push_back(i);
+    centre[i] = 0.5 * (box.lo + box.hi);
   }
   nodes_.reserve(2 * leaves.size());
-  build_range(order, centre, 0, static_cast<int>(order.size()));
+  build_range(order, centre, partner, 0, static_cast<int>(order.size()));
   std::vector<int> height(nodes_.size(), 0);
   by_height_.clear();
   for (int n : post_order_) {
@@ -54,11 +121,23 @@ void AabbTree::build(const std::vector<Aabb>& leaves) {
   refit(leaves);
 }
 
-int AabbTree::build_range(std::vector<int>& order, std::vector<Vec3>& centre, int begin, int end) {
+int AabbTree::build_range(std::vector<int>& order, std::vector<Vec3>& centre, const std::vector<int>& partner,
+                           int begin, int end) {
   const int index = static_cast<int>(nodes_.size());
   nodes_.push_back({});
   if (end - begin == 1) {
-    nodes_[index].leaf = order[begin];
+    const int leaf = order[begin], other = partner.empty() ? -1 : partner[leaf];
+    if (other < 0) {
+      nodes_[index].leaf = leaf;
+    } else {  // a pair: two leaves under this node
+      for (const int member : {leaf, other}) {
+        const int child = static_cast<int>(nodes_.size());
+        nodes_.push_back({});
+        nodes_[child].leaf = member;
+        post_order_.push_back(child);
+        (member == leaf ? nodes_[index].left : nodes_[index].right) = child;
+      }
+    }
     post_order_.push_back(index);
     return index;
   }
@@ -69,8 +148,8 @@ int AabbTree::build_range(std::vector<int>& order, std::vector<Vec3>& centre, in
   const int mid = (begin + end) / 2;
   std::nth_element(order.begin() + begin, order.begin() + mid, order.begin() + end,
                    [&](int a, int b) { return centre[a][axis] < centre[b][axis] || (centre[a][axis] == centre[b][axis] && a < b); });
-  const int left = build_range(order, centre, begin, mid);
-  const int right = build_range(order, centre, mid, end);
+  const int left = build_range(order, centre, partner, begin, mid);
+  const int right = build_range(order, centre, partner, mid, end);
   nodes_[index].left = left;
   nodes_[index].right = right;
   post_order_.push_back(index);

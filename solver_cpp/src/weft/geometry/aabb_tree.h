@@ -56,11 +56,19 @@ void triangle_boxes(const Faces& faces, const Positions& start, const Positions&
 // The box of triangle f alone, as triangle_boxes computes it (margin[f], or none when empty).
 Aabb triangle_box(const Faces& faces, const Positions& start, const Positions& end, const std::vector<double>& margin,
                   int f);
+// Partners for AabbTree::build: each face, in order, paired with its first unpaired neighbour
+// across an edge shared by exactly two faces, trying its edges from the longest at x (a grid
+// cell's diagonal first, so a grid's faces pair into its cells); -1 where none is left.
+std::vector<int> pair_faces_across_edges(const Faces& faces, const Positions& x);
 
 class AabbTree {
  public:
-  // Builds the hierarchy over the given leaf boxes (leaf i is box i).
-  void build(const std::vector<Aabb>& leaves);
+  // Builds the hierarchy over the given leaf boxes (leaf i is box i) by median splits of their
+  // centres. With `partner` (per leaf, the leaf to pair it with, mutually, or -1), paired leaves
+  // are one cluster, split at the centre of their union and made siblings under a node of their
+  // own: the two triangles of a grid cell share one box, so their tied centres fell to either
+  // side by index, and nodes were strips of triangles that touch at corners only.
+  void build(const std::vector<Aabb>& leaves, const std::vector<int>& partner = {});
   // Same leaves, new boxes: recompute node boxes bottom-up (with threads, one height at a time,
   // each node from its children only: the same boxes for any thread count).
   void refit(const std::vector<Aabb>& leaves, int threads = 1);
@@ -170,7 +178,8 @@ class AabbTree {
   }
   // Node n's box as a traversal sees it: its own, or shifted_box when shift is given.
   Aabb box_of(int n, const Vec3* shift) const { return shift ? shifted_box(n, *shift) : nodes_[n].box; }
-  int build_range(std::vector<int>& order, std::vector<Vec3>& centre, int begin, int end);
+  int build_range(std::vector<int>& order, std::vector<Vec3>& centre, const std::vector<int>& partner, int begin,
+                  int end);
   // fit(n) for every node, children before parents (with threads, one height at a time).
   template <class Fit>
   void fit_bottom_up(Fit&& fit, int threads);
