@@ -194,8 +194,10 @@ void CollisionSystem::respond(const Positions& x, Positions& v, double h, const 
     untangle_.clear();
   }
   step_.sharp_edges = constraints_.sharp_edges();
+  step_.clear_vertices = constraints_.clear_vertices();
   detection_.collect(step_, *filter_, frame_, false);
   step_.sharp_edges = nullptr;
+  step_.clear_vertices = nullptr;
   ProximityResponse().apply(step_, props_, frame_, threads_);
   if (strain_limit_.enabled()) {
     const Timer timer;

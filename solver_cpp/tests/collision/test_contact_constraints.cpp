@@ -4,6 +4,7 @@
 // face of every body.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <limits>
 #include <random>
 
@@ -131,6 +132,56 @@ TEST(ContactConstraints, EachFreeVertexGetsItsClosestBodyFaceWithinTheBand) {
     EXPECT_GT(contacts, 100) << "seed " << seed;
     EXPECT_LT(contacts, 14 * 14 - 2) << "seed " << seed;
     EXPECT_GT(near_plate, 0) << "seed " << seed;
+  }
+}
+
+// clear_vertices(): the free vertices with no body face nearer than their thickness, which the
+// proximity list skips; brute force over every face of every body, a vertex lying exactly on a
+// floor corner (distance 0, which the nearest face search passes over) included.
+TEST(ContactConstraints, ClearVerticesHaveNoBodyFaceWithinTheirThickness) {
+  for (unsigned seed : {5u, 6u}) {
+    Scene s(seed);
+    s.x.row(5) = s.bodies[0].frame_start().row(13);
+    const int faces = static_cast<int>(s.cloth_faces.rows());
+    ContactDetection detection(s.cloth_faces, s.x, std::vector<char>(faces, 1), std::vector<char>(faces, 0),
+                               std::vector<double>(faces, kThickness), s.bodies, {1, 1});
+    detection.set_threads(2);
+    const Positions v = Positions::Zero(s.x.rows(), 3);
+    CollisionStep step;
+    Positions v_step = v;
+    step.begin(s.x, v_step, 0.01);
+    for (const KinematicBody& body : s.bodies) {
+      step.body_start.push_back(body.frame_start());
+      step.body_end.push_back(body.frame_start());
+    }
+    ConstraintFilter filter;
+    filter.reset(static_cast<int>(s.x.rows()));
+    ContactConstraints constraints;
+    EXPECT_EQ(constraints.clear_vertices(), nullptr);  // before constrain(): nothing to go by
+    CollisionTelemetry frame;
+    constraints.constrain(s.x, v, 0.01, step, detection, s.props, filter, frame);
+    ASSERT_NE(constraints.clear_vertices(), nullptr);
+    const std::vector<char>& clear = *constraints.clear_vertices();
+    int clear_count = 0, near_count = 0;
+    for (Eigen::Index i = 0; i < s.x.rows(); ++i) {
+      double nearest = std::numeric_limits<double>::infinity();
+      for (const KinematicBody& body : s.bodies)
+        for (Eigen::Index f = 0; f < body.faces().rows(); ++f) {
+          const Positions& y = body.frame_start();
+          Vec3 bary;
+          nearest = std::min(nearest, point_triangle_distance(row3(s.x, static_cast<int>(i)), row3(y, body.faces()(f, 0)),
+                                                              row3(y, body.faces()(f, 1)), row3(y, body.faces()(f, 2)), bary));
+        }
+      const bool expected = s.props.inverse_mass[i] != 0.0 && nearest >= kThickness;
+      EXPECT_EQ(clear[i] != 0, expected) << "vertex " << i << " at " << nearest << ", seed " << seed;
+      clear_count += expected;
+      near_count += !expected;
+    }
+    EXPECT_GT(clear_count, 20) << "seed " << seed;
+    EXPECT_GT(near_count, 20) << "seed " << seed;
+    EXPECT_EQ(clear[5], 0);
+    constraints.clear();
+    EXPECT_EQ(constraints.clear_vertices(), nullptr);
   }
 }
 

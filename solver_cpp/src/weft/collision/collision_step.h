@@ -55,6 +55,9 @@ struct CollisionStep {
   // sharp ones and the blunt ones pushing into the cloth this step (SharpEdges::advancing).
   // Null: the triangle traversal lists every pair of all three kinds.
   const std::vector<SharpEdges>* sharp_edges = nullptr;
+  // With sharp_edges, per cloth vertex: no body face within its separation at the step's start
+  // (ContactConstraints::clear_vertices); the point-by-point list skips such vertices.
+  const std::vector<char>* clear_vertices = nullptr;
   int ccd_iteration = 0;      // CCD impulse pass within the step
 
   void begin(const Positions& x0, Positions& v0, double step) {

@@ -52,12 +52,18 @@ void ContactConstraints::constrain(const Positions& x, const Positions& v, doubl
     detection.refit_body(static_cast<int>(b), step.body_start[b], step.body_start[b]);
   }
   std::vector<Near> nearby;
+  // clear_[v] is written by the chunk owning v only (each vertex has one owning face).
+  clear_.assign(vertex_count, 0);
   ordered_append(face_count, kChunk, detection.threads(), nearby, [&](std::int64_t cf, std::vector<Near>& out) {
     if (!detection.face_collide()[cf]) return;
     for (int vtx : detection.cloth_ownership().face_vertices[cf]) {
       if (props.inverse_mass[vtx] == 0.0) continue;
       const Vec3 p = row3(x, vtx);
       Near found{std::numeric_limits<double>::infinity(), {}};
+      // Any face nearer than the separation, the ones the nearest face search passes over
+      // (within 1e-12 of it) included: the search visits every face within its radius, which
+      // never falls below the separation before such a face was seen.
+      bool within_separation = false;
       for (int body : bodies) {
         const Positions& start = step.body_start[body];
         const Positions& end = step.body_end[body];
@@ -71,6 +77,8 @@ void ContactConstraints::constrain(const Positions& x, const Positions& v, doubl
           Vec3 bary;
           const double d = point_triangle_distance(p, row3(start, state.faces(bf, 0)), row3(start, state.faces(bf, 1)),
                                                    row3(start, state.faces(bf, 2)), bary);
+          // (The proximity response's reach for this pair: ContactProperties::pair_thickness.)
+          if (d < (props.thickness[vtx] > 0.0 ? th : th + props.default_thickness)) within_separation = true;
           if (d >= kContactBand * th || d <= 1e-12 * th) return;
           if (d < nearest || (d == nearest && bf < face)) {
             nearest = d;
@@ -91,6 +99,7 @@ void ContactConstraints::constrain(const Positions& x, const Positions& v, doubl
         found = {nearest, {vtx, body, (p - closest) / nearest, vb, 0.0}};
       }
       if (std::isfinite(found.distance)) out.push_back(found);
+      clear_[vtx] = !within_separation;
     }
   });
   for (const Near& near : nearby) {

@@ -64,6 +64,11 @@ class ContactConstraints {
   // proximity list needs edge/edge pairs with the sharp and the pushing edges only; on a draped
   // sheet edge pairs are most of the list (ContactDetection::collect; CCD still tests every pair).
   const std::vector<SharpEdges>* sharp_edges() const { return looked_ ? &sharp_ : nullptr; }
+  // Per cloth vertex, after this step's constrain() (null otherwise): 1 where the vertex is free
+  // and no collidable body face was within its separation (ContactProperties::body_separation)
+  // at the step's start. The search looked at every face within it, so such a vertex has no
+  // vertex/face proximity pair that the response would act on, and the proximity list skips it.
+  const std::vector<char>* clear_vertices() const { return looked_ ? &clear_ : nullptr; }
 
  private:
   struct Contact {
@@ -91,6 +96,7 @@ class ContactConstraints {
   std::vector<char> released_;  // per cloth vertex: its constraint pulled last step, free this step
   std::vector<char> held_;      // per cloth vertex: constrained last step with a pushing impulse
   std::vector<SharpEdges> sharp_;  // per body
+  std::vector<char> clear_;        // per cloth vertex: clear_vertices()
   bool looked_ = false;            // constrain() ran since the last clear()
   double thinnest_ = 0.0, thickest_ = 0.0;  // cloth vertex thicknesses, for the sharp edges
 };

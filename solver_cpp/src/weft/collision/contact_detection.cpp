@@ -390,6 +390,7 @@ void ContactDetection::point_pairs(const Positions& x, const CollisionStep& step
     const double gap = face_margin_[cf];
     const double limit = gap * (1.0 + kPlaneSlack);
     for (int v : cloth_own_.face_vertices[cf]) {
+      if (step.clear_vertices && (*step.clear_vertices)[v]) continue;  // no face it could act with
       const Vec3 p = row3(x, v);
       Aabb box;
       box.lo = p - Vec3::Constant(gap);
