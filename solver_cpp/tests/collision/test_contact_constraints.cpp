@@ -85,6 +85,20 @@ std::vector<Closest> brute_force(const Scene& s) {
   return out;
 }
 
+// One step of s with cloth velocities v (kept by the caller) and still bodies, and its filter.
+struct StillStep {
+  CollisionStep step;
+  ConstraintFilter filter;
+  StillStep(const Scene& s, Positions& v) {
+    step.begin(s.x, v, 0.01);
+    for (const KinematicBody& body : s.bodies) {
+      step.body_start.push_back(body.frame_start());
+      step.body_end.push_back(body.frame_start());
+    }
+    filter.reset(static_cast<int>(s.x.rows()));
+  }
+};
+
 // Every vertex moves at 10 m/s towards its closest face (brute force), or falls where it has
 // none: each one within the band approaches its contact faster than the target, so each gets
 // a constraint along the normal the search chose.
@@ -97,16 +111,9 @@ ConstraintFilter constrain(const Scene& s, const std::vector<Closest>& closest, 
   Positions v = Positions::Zero(s.x.rows(), 3);
   for (Eigen::Index i = 0; i < v.rows(); ++i)
     v.row(i) = std::isfinite(closest[i].distance) ? Vec3(-10.0 * closest[i].normal).transpose() : Vec3(0, 0, -10).transpose();
-  CollisionStep step;
-  step.begin(s.x, v, 0.01);
-  for (const KinematicBody& body : s.bodies) {
-    step.body_start.push_back(body.frame_start());
-    step.body_end.push_back(body.frame_start());
-  }
-  ConstraintFilter filter;
-  filter.reset(static_cast<int>(s.x.rows()));
-  ContactConstraints().constrain(s.x, v, 0.01, step, detection, s.props, filter, frame);
-  return filter;
+  StillStep still(s, v);
+  ContactConstraints().constrain(s.x, v, 0.01, still.step, detection, s.props, still.filter, frame);
+  return still.filter;
 }
 
 TEST(ContactConstraints, EachFreeVertexGetsItsClosestBodyFaceWithinTheBand) {
@@ -146,20 +153,12 @@ TEST(ContactConstraints, ClearVerticesHaveNoBodyFaceWithinTheirThickness) {
     ContactDetection detection(s.cloth_faces, s.x, std::vector<char>(faces, 1), std::vector<char>(faces, 0),
                                std::vector<double>(faces, kThickness), s.bodies, {1, 1});
     detection.set_threads(2);
-    const Positions v = Positions::Zero(s.x.rows(), 3);
-    CollisionStep step;
-    Positions v_step = v;
-    step.begin(s.x, v_step, 0.01);
-    for (const KinematicBody& body : s.bodies) {
-      step.body_start.push_back(body.frame_start());
-      step.body_end.push_back(body.frame_start());
-    }
-    ConstraintFilter filter;
-    filter.reset(static_cast<int>(s.x.rows()));
+    Positions v = Positions::Zero(s.x.rows(), 3);
+    StillStep still(s, v);
     ContactConstraints constraints;
     EXPECT_EQ(constraints.clear_vertices(), nullptr);  // before constrain(): nothing to go by
     CollisionTelemetry frame;
-    constraints.constrain(s.x, v, 0.01, step, detection, s.props, filter, frame);
+    constraints.constrain(s.x, v, 0.01, still.step, detection, s.props, still.filter, frame);
     ASSERT_NE(constraints.clear_vertices(), nullptr);
     const std::vector<char>& clear = *constraints.clear_vertices();
     int clear_count = 0, near_count = 0;
