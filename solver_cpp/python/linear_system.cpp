@@ -69,6 +69,7 @@ void bind_linear_system(py::module_& m) {
       .value("BLOCK_JACOBI", Preconditioner::kBlockJacobi)
       .value("MULTIGRID", Preconditioner::kMultigrid);
   m.attr("MULTIGRID_AUTO_VERTICES") = kMultigridAutoVertices;
+  m.attr("AUTO_BLOCK_JACOBI_ITERATIONS") = kAutoBlockJacobiIterations;
 
   py::class_<LinearSystemInfo>(m, "LinearSystemInfo")
       .def_readonly("path", &LinearSystemInfo::path)

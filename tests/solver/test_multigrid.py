@@ -79,15 +79,29 @@ def test_multigrid_with_contact_constraints_follows_block_jacobi() -> None:
     assert sum(it_mg[4:]) * 5 < sum(it_bj[4:])  # with contacts
 
 
-def test_auto_picks_by_vertex_count() -> None:
-    threshold = _solver.MULTIGRID_AUTO_VERTICES
-    assert 500 <= threshold <= 20_000
-    small = int(np.sqrt(threshold)) - 2
-    _, _, sim = run(pinned_sheet(small, frames=2))
-    assert _solver.linear_system_info(sim).preconditioner == "block_jacobi"
+def test_auto_picks_by_vertex_count_and_by_need() -> None:
+    """Multigrid from MULTIGRID_AUTO_VERTICES on; below, block Jacobi unless a solve needs more
+    than AUTO_BLOCK_JACOBI_ITERATIONS, which then goes on with multigrid (as do the frame's later
+    solves): the stiff pinned sheet needs it, and takes fewer iterations than with block Jacobi
+    alone; a small loose patch stays on block Jacobi."""
+    threshold, limit = _solver.MULTIGRID_AUTO_VERTICES, _solver.AUTO_BLOCK_JACOBI_ITERATIONS
+    assert 500 <= threshold <= 20_000 and 10 <= limit <= 200
     large = int(np.ceil(np.sqrt(threshold)))
     _, _, sim = run(pinned_sheet(large, frames=2))
     assert _solver.linear_system_info(sim).preconditioner == "multigrid"
+    small = int(np.sqrt(threshold)) - 2
+    x_bj, it_bj, sim = run(pinned_sheet(small, frames=2, preconditioner="block_jacobi"))
+    assert it_bj > 2 * limit  # one frame, two substeps: block Jacobi alone needs more
+    x_auto, it_auto, sim = run(pinned_sheet(small, frames=2))
+    assert _solver.linear_system_info(sim).preconditioner == "multigrid"
+    assert it_auto < it_bj
+    assert np.abs(x_auto - x_bj).max() < 1e-4  # the same solve, to the shot's tolerance
+    loose = pinned_sheet(5, frames=2)
+    loose["solver"]["cg_tolerance"] = 1e-3
+    loose["cloth"][0]["material"] = {"density": 0.3}  # default stiffnesses
+    _, it_loose, sim = run(loose)
+    assert _solver.linear_system_info(sim).preconditioner == "block_jacobi"
+    assert 0 < it_loose <= 2 * limit
 
 
 def test_the_schema_names_the_choices() -> None:

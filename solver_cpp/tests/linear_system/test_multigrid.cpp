@@ -335,3 +335,53 @@ TEST(Multigrid, AReusedHierarchyThatFailsToConvergeIsRefreshedAndTheSolveResumed
   EXPECT_EQ(second.iterations, 6);
   EXPECT_EQ(fast.info().multigrid_refreshes, 2);
 }
+
+// `auto` below kMultigridAutoVertices: block Jacobi first; a solve that needs more than
+// kAutoBlockJacobiIterations goes on with multigrid from the block-Jacobi iterate (the
+// reported iterations count both) and the frame's later solves start with multigrid; a new
+// frame starts with block Jacobi again. A small soft patch's solve (at the shots' default
+// tolerance) stays on block Jacobi.
+TEST(Multigrid, AutoGoesOnWithMultigridWhereBlockJacobiNeedsMany) {
+  const int nx = 24, ny = 20;  // 480 vertices: below kMultigridAutoVertices
+  ASSERT_LT(nx * ny, kMultigridAutoVertices);
+  const ConstraintFilter filter = sheet_filter(nx, ny);
+  const PcgSettings pcg{1e-6, 2000};
+  auto solve = [&](FastLinearSystem<float>& fast, VectorX& dv, Preconditioner preconditioner,
+                   const PcgSettings& settings) {
+    dv = VectorX::Zero(3 * nx * ny);
+    const PcgStats stats = fast.solve_with(filter, dv, settings, preconditioner);
+    EXPECT_TRUE(stats.converged);
+    EXPECT_LT(filtered_residual(fast, filter, dv), 1.5 * settings.tolerance);
+    return stats;
+  };
+  SmallCloth stiff(nx, ny, 20.0);
+  FastLinearSystem<float> fast(stiff.mesh, *stiff.model, LinearSystemOptions{}, 2);
+  fast.build(stiff.x, stiff.v, 0.0, kStep);
+  fast.start_frame();
+  VectorX jacobi, automatic, again;
+  const PcgStats sj = solve(fast, jacobi, Preconditioner::kBlockJacobi, pcg);
+  ASSERT_GT(sj.iterations, 2 * kAutoBlockJacobiIterations) << "not a case for the switch";
+  const PcgStats first = solve(fast, automatic, Preconditioner::kAuto, pcg);
+  EXPECT_EQ(fast.info().preconditioner, "multigrid");
+  EXPECT_GT(first.iterations, kAutoBlockJacobiIterations);
+  EXPECT_LT(first.iterations, sj.iterations);
+  EXPECT_LT((automatic - jacobi).norm(), 1e-3 * jacobi.norm());
+  const PcgStats later = solve(fast, again, Preconditioner::kAuto, pcg);
+  EXPECT_EQ(fast.info().preconditioner, "multigrid");
+  EXPECT_LT(later.iterations, kAutoBlockJacobiIterations) << "the frame's later solves start with multigrid";
+  fast.start_frame();
+  const PcgStats next_frame = solve(fast, again, Preconditioner::kAuto, pcg);
+  EXPECT_EQ(next_frame.iterations, first.iterations) << "a new frame decides afresh, as the first did";
+
+  const int sx = 10, sy = 8;  // a small soft patch
+  SmallCloth soft(sx, sy, 0.05);
+  FastLinearSystem<float> soft_fast(soft.mesh, *soft.model, LinearSystemOptions{}, 2);
+  soft_fast.build(soft.x, soft.v, 0.0, kStep);
+  soft_fast.start_frame();
+  const ConstraintFilter soft_filter = sheet_filter(sx, sy);
+  VectorX soft_dv = VectorX::Zero(3 * sx * sy);
+  const PcgStats soft_stats = soft_fast.solve_with(soft_filter, soft_dv, PcgSettings{1e-3, 2000}, Preconditioner::kAuto);
+  EXPECT_TRUE(soft_stats.converged);
+  EXPECT_LE(soft_stats.iterations, kAutoBlockJacobiIterations);
+  EXPECT_EQ(soft_fast.info().preconditioner, "block_jacobi");
+}

@@ -1,6 +1,7 @@
 #include "weft/linear_system/fast_linear_system.h"
 
 #include <algorithm>
+#include <cmath>
 #include <numeric>
 #include <stdexcept>
 
@@ -198,7 +199,7 @@ PcgStats FastLinearSystem<Scalar>::solve_with(const ConstraintFilter& filter, Ve
 template <class Scalar>
 bool FastLinearSystem<Scalar>::uses_multigrid(Preconditioner preconditioner) const {
   return preconditioner == Preconditioner::kMultigrid ||
-         (preconditioner == Preconditioner::kAuto && mesh_.vertex_count >= kMultigridAutoVertices);
+         (preconditioner == Preconditioner::kAuto && (mesh_.vertex_count >= kMultigridAutoVertices || auto_switched_));
 }
 
 template <class Scalar>
@@ -225,11 +226,30 @@ PcgStats FastLinearSystem<Scalar>::solve_with(const ConstraintFilter& filter, Ve
   };
   PcgStats stats;
   ++solves_;
-  last_multigrid_ = uses_multigrid(preconditioner) && prepare_multigrid(threads);
+  // kAuto on a small system: block Jacobi first, at most kAutoBlockJacobiIterations; a solve
+  // that needs more goes on from its iterate with multigrid (and the frame's later solves
+  // start with it). Decided afresh each frame, so a resumed run decides as the original did.
+  bool tried_block_jacobi = false;
+  int block_jacobi_iterations = 0;  // of a first attempt that did not converge
+  if (preconditioner == Preconditioner::kAuto && !uses_multigrid(preconditioner) && !multigrid_unusable_ &&
+      pcg.max_iterations > kAutoBlockJacobiIterations) {
+    tried_block_jacobi = true;
+    PcgSettings capped = pcg;
+    capped.max_iterations = kAutoBlockJacobiIterations;
+    stats = prefiltered_pcg(apply, diagonal_, permuted_filter_, rhs_, permuted_dv_, capped, threads);
+    if (!stats.converged && std::isfinite(stats.relative_residual)) {
+      auto_switched_ = true;
+      block_jacobi_iterations = stats.iterations;
+    }
+  }
+  const bool go_on = !tried_block_jacobi || block_jacobi_iterations > 0;
+  PcgSettings rest = pcg;
+  rest.max_iterations = pcg.max_iterations - block_jacobi_iterations;
+  last_multigrid_ = go_on && uses_multigrid(preconditioner) && prepare_multigrid(threads);
   if (last_multigrid_) {
     const double setup = multigrid_last_setup_seconds_;
     auto cycle = [this, threads](const VectorX& r, VectorX& z) { multigrid_->apply(r, z, threads); };
-    stats = prefiltered_pcg(apply, diagonal_, permuted_filter_, rhs_, permuted_dv_, pcg, threads, cycle);
+    stats = prefiltered_pcg(apply, diagonal_, permuted_filter_, rhs_, permuted_dv_, rest, threads, cycle);
     double setup_seconds = setup;
     int reused_iterations = 0;  // of a first attempt with reused values or bounds, if it failed
     if (!stats.converged && !multigrid_all_fresh_) {
@@ -239,15 +259,16 @@ PcgStats FastLinearSystem<Scalar>::solve_with(const ConstraintFilter& filter, Ve
       if (prepare_multigrid(threads)) {
         reused_iterations = stats.iterations;
         setup_seconds += multigrid_last_setup_seconds_;
-        stats = prefiltered_pcg(apply, diagonal_, permuted_filter_, rhs_, permuted_dv_, pcg, threads, cycle);
+        stats = prefiltered_pcg(apply, diagonal_, permuted_filter_, rhs_, permuted_dv_, rest, threads, cycle);
       }
     }
     if (multigrid_refreshed_) multigrid_fresh_iterations_ = stats.iterations;
     multigrid_last_iterations_ = stats.iterations;
-    stats.iterations += reused_iterations;
+    stats.iterations += reused_iterations + block_jacobi_iterations;
     stats.preconditioner_setup_seconds = setup_seconds;
-  } else {
-    stats = prefiltered_pcg(apply, diagonal_, permuted_filter_, rhs_, permuted_dv_, pcg, threads);
+  } else if (go_on) {  // block Jacobi (after a first attempt: multigrid unusable after all)
+    stats = prefiltered_pcg(apply, diagonal_, permuted_filter_, rhs_, permuted_dv_, rest, threads);
+    stats.iterations += block_jacobi_iterations;
   }
 #pragma omp parallel for schedule(static) num_threads(threads)
   for (int r = 0; r < n; ++r) dv.segment<3>(3 * order_[r]) = permuted_dv_.segment<3>(3 * r);

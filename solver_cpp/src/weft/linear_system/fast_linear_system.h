@@ -36,7 +36,10 @@ class FastLinearSystem final : public LinearSystemPath {
   PcgStats solve(const ConstraintFilter& filter, VectorX& dv) override;
   void residual(const VectorX& dv, VectorX& r) const override;
   TransientElements* transient() override { return &transient_; }
-  void start_frame() override { multigrid_stale_ = true; }
+  void start_frame() override {
+    multigrid_stale_ = true;
+    auto_switched_ = false;
+  }
   LinearSystemInfo info() const override;
 
   const BcrsMatrix<Scalar>& matrix() const { return matrix_; }
@@ -95,6 +98,9 @@ class FastLinearSystem final : public LinearSystemPath {
   double last_h_ = 0.0;
   bool last_multigrid_ = false;
   bool multigrid_unusable_ = false;  // the pattern gave no hierarchy: block Jacobi
+  // kAuto below kMultigridAutoVertices: a block-Jacobi solve that needed more than
+  // kAutoBlockJacobiIterations went on with multigrid, and so do the frame's later solves.
+  bool auto_switched_ = false;
 };
 
 }  // namespace weft

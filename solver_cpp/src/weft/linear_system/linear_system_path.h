@@ -23,6 +23,11 @@ enum class MatrixPrecision { kFloat32, kFloat64 };
 // kAuto picks smoothed-aggregation multigrid from kMultigridAutoVertices vertices on.
 enum class Preconditioner { kAuto, kBlockJacobi, kMultigrid };
 constexpr int kMultigridAutoVertices = 1000;  // measured: docs/multigrid.md
+// Below that size kAuto starts each frame with block Jacobi and goes on with multigrid, for
+// the rest of the frame, from a solve that needs more iterations than this (a stiff or
+// constrained small piece: a sleeve pinned round a swinging limb took 150 per substep where
+// multigrid takes 11). Measured: docs/multigrid.md, "auto".
+constexpr int kAutoBlockJacobiIterations = 60;
 
 struct LinearSystemOptions {
   LinearSystemKind kind = LinearSystemKind::kFast;
