@@ -69,6 +69,8 @@ void ContactConstraints::constrain(const Positions& x, const Positions& v, doubl
         const Positions& end = step.body_end[body];
         const ContactDetection::Body& state = detection.bodies()[body];
         const double th = props.body_separation(vtx, body);
+        // The proximity response's reach for this vertex's pairs (ContactProperties::pair_thickness).
+        const double reach = props.thickness[vtx] > 0.0 ? th : th + props.default_thickness;
         double radius = kContactBand * th;
         int face = -1;
         double nearest = std::numeric_limits<double>::infinity();
@@ -77,8 +79,7 @@ void ContactConstraints::constrain(const Positions& x, const Positions& v, doubl
           Vec3 bary;
           const double d = point_triangle_distance(p, row3(start, state.faces(bf, 0)), row3(start, state.faces(bf, 1)),
                                                    row3(start, state.faces(bf, 2)), bary);
-          // (The proximity response's reach for this pair: ContactProperties::pair_thickness.)
-          if (d < (props.thickness[vtx] > 0.0 ? th : th + props.default_thickness)) within_separation = true;
+          if (d < reach) within_separation = true;
           if (d >= kContactBand * th || d <= 1e-12 * th) return;
           if (d < nearest || (d == nearest && bf < face)) {
             nearest = d;
