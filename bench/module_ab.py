@@ -65,10 +65,9 @@ def child(scene_name: str, module: str, frames: int, threads: int, positions: st
 
     with tempfile.TemporaryDirectory() as directory:
         if Path(scene_name).suffix in SHOT_SUFFIXES:
-            from weft.shot import load_shot_file
-            from weft.solver_setup import resolve_scene
+            from regress.runs import resolve
 
-            scene = resolve_scene(load_shot_file(scene_name), Path(scene_name).parent)
+            scene = resolve(Path(scene_name))
             first, last = scene.shot.frame_range
             frames = frames or last - first + 1
         else:
