@@ -234,6 +234,7 @@ SmoothedAggregation::SmoothedAggregation(const std::vector<int>& row_start, cons
         level.transpose[k] = static_cast<int>(found - level.a.column.begin());
       }
     level.kernel.set_pattern(level.a.start, level.a.column);
+    if (l == 0 && options_.filtered_smoothing) mark_weak_blocks(level, g);
     level.inverse_diagonal.assign(n, Mat3::Identity());
     level.near_null.assign(n, Mat3::Identity());
     for (VectorX* v : {&level.res, &level.d, &level.t, &level.rr}) v->setZero(3 * n);
@@ -259,6 +260,22 @@ SmoothedAggregation::SmoothedAggregation(const std::vector<int>& row_start, cons
   }
 }
 
+void SmoothedAggregation::mark_weak_blocks(Level& level, const Graph& strength) {
+  const BlockRowsF& a = level.a;
+  level.weak.assign(a.column.size(), 0);
+  bool any = false;
+  for (int i = 0; i < a.rows; ++i) {
+    const auto first = strength.neighbors.begin() + strength.offsets[i];
+    const auto last = strength.neighbors.begin() + strength.offsets[i + 1];
+    for (int k = a.start[i]; k < a.start[i + 1]; ++k) {
+      const int j = a.column[k];
+      level.weak[k] = j != i && std::find(first, last, j) == last;
+      any = any || level.weak[k];
+    }
+  }
+  if (!any) level.weak.clear();
+}
+
 bool SmoothedAggregation::coarsen_structure(int l, const Graph& strength) {
   std::vector<int> aggregate;
   const int n = levels_[l].a.rows;
@@ -277,9 +294,11 @@ bool SmoothedAggregation::coarsen_structure(int l, const Graph& strength) {
     level.tentative.assign(n, Mat3::Zero());
     level.kept.assign(nc, Mat3::Identity());
     const BlockRowsF& a = level.a;
-    // P: row i reaches the aggregates of i's matrix neighbours (one Jacobi step of T).
+    // P: row i reaches the aggregates of i's matrix neighbours (one Jacobi step of T), its
+    // strong ones where the level smooths with a filtered operator.
     build_pattern(level.p, n, nc, [&](int i, auto&& add) {
-      for (int k = a.start[i]; k < a.start[i + 1]; ++k) add(level.aggregate[a.column[k]]);
+      for (int k = a.start[i]; k < a.start[i + 1]; ++k)
+        if (level.weak.empty() || !level.weak[k]) add(level.aggregate[a.column[k]]);
     });
     build_pattern(level.ap, n, nc, [&](int i, auto&& add) {
       for (int k = a.start[i]; k < a.start[i + 1]; ++k) {
@@ -447,9 +466,27 @@ void SmoothedAggregation::update_level_values(int l, int threads, bool keep_boun
     level.kept[J] = kept;
   }
 
-  // Smoothed prolongator P = (I - omega D^-1 A) T.
+  // Smoothed prolongator P = (I - omega D^-1 A) T, or with the filtered A^F and its lumped
+  // diagonal D^F (a diagonal that lumping left singular keeps A's own).
   const double omega = 4.0 / (3.0 * level.rho);
   BlockRowsF& p = level.p;
+  const bool filtered = !level.weak.empty();
+  if (filtered) {
+    level.smoothing_inverse.resize(n);
+#pragma omp parallel for schedule(static) num_threads(th) if (th > 1)
+    for (int i = 0; i < n; ++i) {
+      Mat3 lumped = a.value[level.diagonal[i]].cast<double>();
+      for (int k = a.start[i]; k < a.start[i + 1]; ++k)
+        if (level.weak[k]) lumped += a.value[k].cast<double>();
+      Mat3 inverse;
+      bool invertible = false;
+      double determinant = 0.0;
+      lumped.computeInverseAndDetWithCheck(inverse, determinant, invertible);
+      level.smoothing_inverse[i] = invertible && determinant > 0.0 && inverse.allFinite() ? inverse
+                                                                                        : level.inverse_diagonal[i];
+    }
+  }
+  const std::vector<Mat3>& smoothing_inverse = filtered ? level.smoothing_inverse : level.inverse_diagonal;
 #pragma omp parallel num_threads(th) if (th > 1)
   {
     std::vector<int> where(nc, -1);
@@ -461,9 +498,14 @@ void SmoothedAggregation::update_level_values(int l, int threads, bool keep_boun
       for (int k = 0; k < count; ++k) where[p.column[begin + k]] = k;
       for (int k = a.start[i]; k < a.start[i + 1]; ++k) {
         const int j = a.column[k];
+        if (filtered && level.weak[k]) {
+          // A^F: the weak block moves onto the diagonal (T_j's aggregate may be outside P's row).
+          row[where[level.aggregate[i]]].noalias() += a.value[k].cast<double>() * level.tentative[i];
+          continue;
+        }
         row[where[level.aggregate[j]]].noalias() += a.value[k].cast<double>() * level.tentative[j];
       }
-      const Mat3 scale = -omega * level.inverse_diagonal[i];
+      const Mat3 scale = -omega * smoothing_inverse[i];
       for (Mat3& block : row) block = (scale * block).eval();
       row[where[level.aggregate[i]]] += level.tentative[i];
       for (int k = 0; k < count; ++k) p.value[begin + k] = row[k].cast<float>();

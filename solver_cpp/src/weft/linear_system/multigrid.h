@@ -11,7 +11,8 @@
 //                 orthonormalisation, the QR of classic SA; directions with G_J = 0, e.g. an
 //                 aggregate of pinned vertices, are dropped: Q_J = projection onto range(G_J));
 //   prolongator   P = (I - omega D^-1 A) T, omega = 4 / (3 rho), rho ~ rho(D^-1 A) by a few
-//                 Lanczos steps (D: the 3x3 diagonal blocks);
+//                 Lanczos steps (D: the 3x3 diagonal blocks); on the finest level A and D are
+//                 the filtered A^F and its lumped diagonal (MultigridOptions::filtered_smoothing);
 //   coarse        A_c = P^T A P + (I - Q): the same pre-filtered form one level down, so every
 //                 level is SPD; B_c,J = G_J^(1/2).
 // Level operators are stored in float32 (values rounded once, symmetric bit for bit; setup
@@ -62,6 +63,13 @@ struct MultigridOptions {
   int lanczos_steps = 10;       // for rho(D^-1 A) per level and solve
   double upper_factor = 1.1;    // Chebyshev upper bound = upper_factor * rho
   double lower_ratio = 1.0 / 30.0;  // Chebyshev lower bound = lower_ratio * upper bound
+  // The finest level's prolongator is smoothed with the filtered operator A^F: the blocks
+  // outside the strength graph (a hinge's couplings across an edge) dropped and added to their
+  // row's diagonal block, so A^F keeps A's row sums (its action on rigid translations). P's
+  // rows then reach only the aggregates of a row's strong neighbours (Vanek, Mandel & Brezina
+  // 1996; pyamg's filtered smoothing): a sparser P, A P and coarse operator, a cheaper setup
+  // and cycle. false: P smoothed with A itself.
+  bool filtered_smoothing = true;
 };
 
 class SmoothedAggregation {
@@ -91,6 +99,8 @@ class SmoothedAggregation {
   int levels() const { return static_cast<int>(levels_.size()); }
   std::vector<int> level_rows() const;
   double operator_complexity() const;  // blocks of all levels / blocks of the finest
+  // Blocks of level l's prolongator (l below the coarsest).
+  int prolongator_blocks(int l) const { return static_cast<int>(levels_[l].p.value.size()); }
   const BlockRowsF& level_matrix(int l) const { return levels_[l].a; }
   double spectral_radius(int l) const { return levels_[l].rho; }
 
@@ -99,6 +109,8 @@ class SmoothedAggregation {
     BlockRowsF a;                      // operator: values per update(), float32 (half the bytes)
     BcrsMatrix<float> kernel;          // the same values for the cycle's products (bcrs.h SSE kernel)
     std::vector<int> diagonal;         // block index of each row's diagonal
+    std::vector<char> weak;            // per block, outside the strength graph (finest level; empty: none)
+    std::vector<Mat3> smoothing_inverse;  // (lumped diagonal of A^F)^-1 per row, where weak is not empty
     std::vector<int> transpose;        // block index of (column, row) for each block
     std::vector<Mat3> inverse_diagonal;
     std::vector<Mat3> near_null;       // B_i
@@ -114,6 +126,8 @@ class SmoothedAggregation {
                                           // finest level's are the caller's)
   };
   bool coarsen_structure(int l, const Graph& strength);
+  // Level::weak from the strength graph (cleared when every block is strong).
+  static void mark_weak_blocks(Level& level, const Graph& strength);
   void update_values(const ConstraintFilter& filter, int threads, bool keep_bounds = false);  // level 0's blocks copied
   void update_fine_values(const ConstraintFilter& filter, int threads);
   void filter_fine_level(const ConstraintFilter& filter, int threads);  // S A S + I - S in place, B_i = S_i
