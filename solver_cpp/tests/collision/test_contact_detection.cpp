@@ -414,5 +414,81 @@ TEST(ContactDetection, ABodyIsRefittedWhenItMovedAndOnlyThen) {
   EXPECT_DOUBLE_EQ(root.hi.x(), 0.09);
 }
 
+// A character of many small parts (each fewer corners than one parallel chunk): the body
+// corners and reaching body edges of all parts are listed in one parallel pass, body after
+// body, as one pass per body lists them, and the same on one thread as on two.
+TEST(ContactDetection, PointPairsOfManySmallBodiesComeBodyAfterBodyOnAnyThreadCount) {
+  const double gap = 0.003;
+  const ClothOverTiltedGrid g([&](int i, int j) { return (i + j) % 3 == 0 ? 0.4 * gap : 1.6 * gap; });
+  const int n = g.n, parts = 12;  // 12 x 49 corners: more than one chunk in all, under one per part
+  const Vec3 normal = Vec3(-1.0, 0.0, 1.0).normalized();
+  std::vector<Positions> part_x;
+  std::vector<KinematicBody> bodies;
+  std::vector<SharpEdges> sharp;
+  for (int k = 0; k < parts; ++k) {
+    Positions p = g.body_x;
+    for (int r = 0; r < p.rows(); ++r) p.row(r) -= (0.05 * gap * k) * normal.transpose();
+    part_x.push_back(p);
+    bodies.emplace_back(g.body_faces, p);
+    sharp.emplace_back(g.body_faces);
+    sharp.back().update(g.body_faces, p, 0.015, gap);  // the border a knife edge: edge pairs too
+  }
+  auto collect = [&](const std::vector<int>& which, int threads) {
+    std::vector<KinematicBody> some;
+    std::vector<SharpEdges> some_sharp;
+    std::vector<Positions> some_x;
+    for (int k : which) {
+      some.push_back(bodies[k]);
+      some_sharp.push_back(sharp[k]);
+      some_x.push_back(part_x[k]);
+    }
+    ContactDetection detection(g.cloth_faces, g.x, std::vector<char>(g.face_count(), 1),
+                               std::vector<char>(g.face_count(), 0), std::vector<double>(g.face_count(), gap), some,
+                               std::vector<char>(some.size(), 1));
+    detection.set_threads(threads);
+    CollisionStep step;
+    Positions v = Positions::Zero(n * n, 3);
+    step.begin(g.x, v, 0.01);
+    step.body_start = some_x;
+    step.body_end = some_x;
+    step.sharp_edges = &some_sharp;
+    CollisionTelemetry frame;
+    detection.collect(step, SkipNothing(), frame, false);
+    return step.proximity_pairs;
+  };
+  std::vector<int> all(parts);
+  for (int k = 0; k < parts; ++k) all[k] = k;
+  const std::vector<FeaturePair> one = collect(all, 1), two = collect(all, 2);
+  ASSERT_EQ(one.size(), two.size());
+  for (size_t k = 0; k < one.size(); ++k) {
+    EXPECT_EQ(one[k].point, two[k].point);
+    EXPECT_EQ(one[k].body, two[k].body);
+  }
+  // Body corners, then body edges, each body after body and as each body alone lists them.
+  std::vector<FeaturePair> corners, edges, alone_corners, alone_edges;
+  for (const FeaturePair& p : one) {
+    if (p.point[0] < 0) corners.push_back(p);
+    if (p.edge_edge) edges.push_back(p);
+  }
+  for (int k = 0; k < parts; ++k)
+    for (FeaturePair p : collect({k}, 1)) {
+      p.body = k;
+      if (p.point[0] < 0) alone_corners.push_back(p);
+      if (p.edge_edge) alone_edges.push_back(p);
+    }
+  ASSERT_GT(corners.size(), static_cast<size_t>(parts));
+  ASSERT_GT(edges.size(), static_cast<size_t>(parts));
+  ASSERT_EQ(corners.size(), alone_corners.size());
+  ASSERT_EQ(edges.size(), alone_edges.size());
+  for (size_t k = 0; k < corners.size(); ++k) {
+    EXPECT_EQ(corners[k].point, alone_corners[k].point);
+    EXPECT_EQ(corners[k].body, alone_corners[k].body);
+  }
+  for (size_t k = 0; k < edges.size(); ++k) {
+    EXPECT_EQ(edges[k].point, alone_edges[k].point);
+    EXPECT_EQ(edges[k].body, alone_edges[k].body);
+  }
+}
+
 }  // namespace
 }  // namespace weft

@@ -156,7 +156,8 @@ TEST(SelfCulling, ASheetTurningOverTheStepIsNotCulled) {
 
 TEST(SelfCulling, AnIncrementalUpdateCullsAsAFullOne) {
   // A wavy sheet moving over a step; then, again and again, a few vertices get a new end
-  // position (as CCD impulses change them): update_changed must give what a full update gives.
+  // position (as CCD impulses change them): update_changed must give what a full update gives,
+  // and a full update on two threads what it gives on one.
   const int n = 16;
   Grid grid(n);
   for (int v = 0; v < grid.x.rows(); ++v) grid.x(v, 1) = 0.004 * std::sin(40.0 * grid.x(v, 0)) * std::cos(30.0 * grid.x(v, 2));
@@ -167,9 +168,10 @@ TEST(SelfCulling, AnIncrementalUpdateCullsAsAFullOne) {
   AabbTree tree;
   tree.build(boxes);
   const std::vector<char> all_self(grid.faces.rows(), 1);
-  SelfCollisionCulling incremental, full;
+  SelfCollisionCulling incremental, full, two_threads;
   incremental.rebuild(tree, grid.faces, all_self);
   full.rebuild(tree, grid.faces, all_self);
+  two_threads.rebuild(tree, grid.faces, all_self);
   const double margin = 0.0005;
   incremental.update(tree, grid.faces, grid.x, end, margin);
   int differing_updates = 0;
@@ -189,6 +191,9 @@ TEST(SelfCulling, AnIncrementalUpdateCullsAsAFullOne) {
     const int expected = full.update(tree, grid.faces, grid.x, end, margin);
     ASSERT_EQ(incremental.culled(), full.culled()) << "round " << round;
     EXPECT_EQ(culled, expected);
+    // The tests of one tree depth run in parallel: the same nodes culled on two threads.
+    EXPECT_EQ(expected, two_threads.update(tree, grid.faces, grid.x, end, margin, 2));
+    ASSERT_EQ(two_threads.culled(), full.culled()) << "round " << round;
     differing_updates += incremental.culled() != before;
   }
   EXPECT_GT(differing_updates, 5);  // the kicks did change what is culled

@@ -46,11 +46,9 @@ void ContactConstraints::constrain(const Positions& x, const Positions& v, doubl
   const Faces& cloth_faces = detection.cloth_faces();
   const auto face_count = static_cast<std::int64_t>(cloth_faces.rows());
   std::vector<int> bodies;
-  for (size_t b = 0; b < detection.bodies().size(); ++b) {
-    if (!detection.bodies()[b].collide) continue;
-    bodies.push_back(static_cast<int>(b));
-    detection.refit_body(static_cast<int>(b), step.body_start[b], step.body_start[b]);
-  }
+  for (size_t b = 0; b < detection.bodies().size(); ++b)
+    if (detection.bodies()[b].collide) bodies.push_back(static_cast<int>(b));
+  detection.refit_bodies(step, false);
   std::vector<Near> nearby;
   // clear_[v] is written by the chunk owning v only (each vertex has one owning face).
   clear_.assign(vertex_count, 0);

@@ -135,6 +135,23 @@ const ContactDetection::Body& ContactDetection::refit_body(int body, const Posit
   return state;
 }
 
+void ContactDetection::refit_bodies(const CollisionStep& step, bool swept) {
+  fit_list_.clear();
+  for (size_t b = 0; b < bodies_.size(); ++b)
+    if (bodies_[b].collide) fit_list_.push_back(static_cast<int>(b));
+  const int count = static_cast<int>(fit_list_.size());
+  // Each body's boxes, tree and planes are its own: a thread per body (a nested region inside
+  // runs on one thread), the same values for any thread count.
+#pragma omp parallel for schedule(dynamic, 1) num_threads(threads_) if (threads_ > 1 && count > 1)
+  for (int i = 0; i < count; ++i) {
+    const int b = fit_list_[i];
+    const Positions& start = step.body_start[b];
+    const Positions& end = swept ? step.body_end[b] : start;
+    refit_body(b, start, end);
+    fit_body_planes(b, start, end);
+  }
+}
+
 void ContactDetection::fit_body_planes(int body, const Positions& start, const Positions& end) {
   Body& state = bodies_[body];
   if (state.planes_at.same(start, end)) return;
@@ -291,6 +308,7 @@ void ContactDetection::collect(CollisionStep& step, const ContactFilter& filter,
   const double fraction = swept ? kCcdSeparationFraction : 1.0;
   // The bodies' sweep frames first: the cloth tree keeps its start and end boxes only where
   // some body needs them.
+  refit_bodies(step, swept);
   const bool shifted = swept && choose_sweep_frames(step);
   refit_cloth(x, end, fraction, shifted);
   cloth_planes_.compute(cloth_faces_, x, end, threads_);
@@ -406,52 +424,61 @@ void ContactDetection::point_pairs(const Positions& x, const CollisionStep& step
     }
   });
   // Each body corner (of vertex_bodies_, in order) with the cloth faces whose boxes (grown by
-  // their margin) hold it and whose plane does not keep it farther than that margin.
-  for (int body : vertex_bodies_) {
-    const Body& b = bodies_[body];
-    const Positions& bx = body_x[body];
-    ordered_append(b.vertex_count, kExpandChunk, threads_, pairs, chunk_pairs_, [&](std::int64_t k, std::vector<FeaturePair>& out) {
-      const Vec3 q = row3(bx, static_cast<int>(k));
-      Aabb point;
-      point.lo = point.hi = q;
-      cloth_tree_.query(point, [&](int cf) {
-        if (!face_collide_[cf]) return;
-        const Vec3& n = cloth_planes_.normal[cf];
-        if (n != Vec3::Zero() && std::abs(n.dot(q - cloth_planes_.origin[cf])) > face_margin_[cf] * (1.0 + kPlaneSlack))
-          return;
-        out.push_back({{-1 - static_cast<int>(k), cloth_faces_(cf, 0), cloth_faces_(cf, 1), cloth_faces_(cf, 2)}, body, false});
-      });
+  // their margin) hold it and whose plane does not keep it farther than that margin. All the
+  // bodies' corners in one parallel pass (a part of a character has fewer corners than one
+  // chunk), listed body after body as one pass per body would.
+  point_start_.assign(1, 0);
+  for (int body : vertex_bodies_) point_start_.push_back(point_start_.back() + bodies_[body].vertex_count);
+  auto body_at = [](const std::vector<std::int64_t>& start, std::int64_t k) {
+    return static_cast<size_t>(std::upper_bound(start.begin(), start.end(), k) - start.begin() - 1);
+  };
+  ordered_append(point_start_.back(), kExpandChunk, threads_, pairs, chunk_pairs_, [&](std::int64_t k, std::vector<FeaturePair>& out) {
+    const size_t slot = body_at(point_start_, k);
+    const int body = vertex_bodies_[slot];
+    const int corner = static_cast<int>(k - point_start_[slot]);
+    const Vec3 q = row3(body_x[body], corner);
+    Aabb point;
+    point.lo = point.hi = q;
+    cloth_tree_.query(point, [&](int cf) {
+      if (!face_collide_[cf]) return;
+      const Vec3& n = cloth_planes_.normal[cf];
+      if (n != Vec3::Zero() && std::abs(n.dot(q - cloth_planes_.origin[cf])) > face_margin_[cf] * (1.0 + kPlaneSlack))
+        return;
+      out.push_back({{-1 - corner, cloth_faces_(cf, 0), cloth_faces_(cf, 1), cloth_faces_(cf, 2)}, body, false});
     });
-  }
+  });
   // Each body edge that can reach a cloth edge between two vertices kept off (sharp_edges.h)
   // with the cloth edges whose boxes, grown by their face's margin, overlap its box: its sharp
   // edges, and its blunt ones advancing along their normal by more than half a separation over
   // the step. (Measured against the cloth's own motion instead, a sheet dragged by a fast limb
-  // lost the pairs that held it: weft regress's thin limb tore, strain 1.5 -> 4.4.)
+  // lost the pairs that held it: weft regress's thin limb tore, strain 1.5 -> 4.4.) Every
+  // body's edges in one parallel pass, body after body.
+  reach_edges_.clear();
+  point_start_.assign(1, 0);
   for (int body : vertex_bodies_) {
     const SharpEdges& sharp = (*step.sharp_edges)[body];
-    const Positions& bx = body_x[body];
-    reach_edges_.clear();
     for (int leaf = 0; leaf < sharp.size(); ++leaf) reach_edges_.push_back(sharp.edge(leaf));
-    sharp.advancing(bx, step.body_end[body], 0.5 * sharp.separation(), reach_edges_);
-    ordered_append(static_cast<std::int64_t>(reach_edges_.size()), kExpandChunk, threads_, pairs, chunk_pairs_,
-                   [&](std::int64_t k, std::vector<FeaturePair>& out) {
-                     const std::array<int, 2>& be = reach_edges_[static_cast<size_t>(k)];
-                     Aabb edge;
-                     edge.lo = edge.hi = row3(bx, be[0]);
-                     edge.expand(row3(bx, be[1]));
-                     cloth_tree_.query(edge, [&](int cf) {
-                       if (!face_collide_[cf]) return;
-                       for (const auto& ce : cloth_own_.face_edges[cf]) {
-                         Aabb near;
-                         near.lo = near.hi = row3(x, ce[0]);
-                         near.expand(row3(x, ce[1]));
-                         near.inflate(face_margin_[cf]);
-                         if (near.overlaps(edge)) out.push_back({{ce[0], ce[1], -1 - be[0], -1 - be[1]}, body, true});
-                       }
-                     });
-                   });
+    sharp.advancing(body_x[body], step.body_end[body], 0.5 * sharp.separation(), reach_edges_);
+    point_start_.push_back(static_cast<std::int64_t>(reach_edges_.size()));
   }
+  ordered_append(point_start_.back(), kExpandChunk, threads_, pairs, chunk_pairs_, [&](std::int64_t k, std::vector<FeaturePair>& out) {
+    const int body = vertex_bodies_[body_at(point_start_, k)];
+    const Positions& bx = body_x[body];
+    const std::array<int, 2>& be = reach_edges_[static_cast<size_t>(k)];
+    Aabb edge;
+    edge.lo = edge.hi = row3(bx, be[0]);
+    edge.expand(row3(bx, be[1]));
+    cloth_tree_.query(edge, [&](int cf) {
+      if (!face_collide_[cf]) return;
+      for (const auto& ce : cloth_own_.face_edges[cf]) {
+        Aabb near;
+        near.lo = near.hi = row3(x, ce[0]);
+        near.expand(row3(x, ce[1]));
+        near.inflate(face_margin_[cf]);
+        if (near.overlaps(edge)) out.push_back({{ce[0], ce[1], -1 - be[0], -1 - be[1]}, body, true});
+      }
+    });
+  });
 }
 
 void ContactDetection::collect_changed(CollisionStep& step, const ContactFilter& filter, CollisionTelemetry& frame) {

@@ -77,6 +77,10 @@ class ContactDetection {
   // are those of the last refit (Body::boxes_at). Moving (start and end not the same object),
   // the tree keeps its start and end boxes (AabbTree::moving) for a shifted traversal.
   const Body& refit_body(int body, const Positions& start, const Positions& end);
+  // refit_body and fit_body_planes for every colliding body over the step (swept: start to
+  // end, else at the start), the bodies in parallel: what collect() and the contact
+  // constraints then ask of a body is already fitted.
+  void refit_bodies(const CollisionStep& step, bool swept);
   // Broad phase. swept: over the step from step.x to step.x_end within the CCD minimum
   // separation, into step.pairs; else at step.x within one thickness, into
   // step.proximity_pairs. Cloth in a pinch region gets no CCD. The swept list's cloth/body
@@ -181,7 +185,9 @@ class ContactDetection {
   std::vector<std::int64_t> candidate_start_;  // collect(): body b's candidates start at this index of all
   std::vector<char> body_plain_;               // per body: the filter skips nothing against it
   std::vector<int> vertex_bodies_;             // collect(): bodies whose proximity pairs are found per vertex
-  std::vector<std::array<int, 2>> reach_edges_;  // point_pairs(): a body's edges that get edge pairs
+  std::vector<std::array<int, 2>> reach_edges_;  // point_pairs(): the bodies' edges that get edge pairs
+  std::vector<int> fit_list_;  // refit_bodies(): the colliding bodies
+  std::vector<std::int64_t> point_start_;  // point_pairs(): where each of vertex_bodies_ starts in a pass
   int threads_ = 1;
 };
 

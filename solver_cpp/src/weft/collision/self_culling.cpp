@@ -197,31 +197,40 @@ int SelfCollisionCulling::update(const AabbTree& tree, const Faces& faces, const
   sum_controls();
   test_.assign(nodes, -1);
   last_margin_ = margin;
-  return cull_from_root(tree, x, x_end, margin);
+  return cull_from_root(tree, x, x_end, margin, threads);
 }
 
 int SelfCollisionCulling::cull_from_root(const AabbTree& tree, const Positions& x, const Positions& x_end,
-                                         double margin) {
+                                         double margin, int threads) {
   // Top-down: the first node on each path that passes is culled, with everything below it.
-  // Tests are run where test_ has no result (-1) and kept for update_changed().
+  // Tests are run where test_ has no result (-1) and kept for update_changed(). Level by level,
+  // the tests of one level in parallel: a node's test depends on its own faces only, so the
+  // nodes tested and the culled ones are those of a depth-first walk, for any thread count.
   std::fill(culled_.begin(), culled_.end(), 0);
   int culled = 0;
-  std::vector<int> stack = {0};
-  while (!stack.empty()) {
-    const int n = stack.back();
-    stack.pop_back();
-    if (tree.leaf(n) >= 0) continue;
-    Vec3 axis;
-    if (test_[n] < 0)
+  frontier_.assign(1, 0);
+  while (!frontier_.empty()) {
+    const int count = static_cast<int>(frontier_.size());
+#pragma omp parallel for schedule(dynamic, 4) num_threads(threads) if (threads > 1 && count >= 16)
+    for (int i = 0; i < count; ++i) {
+      const int n = frontier_[i];
+      if (tree.leaf(n) >= 0 || test_[n] >= 0) continue;
+      Vec3 axis;
       test_[n] = connected_[n] && static_cast<int>(boundary_[n].size()) <= kMaxBoundaryEdges && narrow_cone(n, axis) &&
                  boundary_clear(n, axis, x, x_end, margin);
-    if (test_[n] > 0) {
-      culled_[n] = 1;
-      ++culled;
-      continue;
     }
-    stack.push_back(tree.right(n));
-    stack.push_back(tree.left(n));
+    next_frontier_.clear();
+    for (int n : frontier_) {
+      if (tree.leaf(n) >= 0) continue;
+      if (test_[n] > 0) {
+        culled_[n] = 1;
+        ++culled;
+        continue;
+      }
+      next_frontier_.push_back(tree.left(n));
+      next_frontier_.push_back(tree.right(n));
+    }
+    frontier_.swap(next_frontier_);
   }
   return culled;
 }
@@ -241,7 +250,7 @@ int SelfCollisionCulling::update_changed(const AabbTree& tree, const Faces& face
     for (int n = leaf_node_[f]; n >= 0; n = parent_[n]) test_[n] = -1;
   }
   sum_controls();
-  return cull_from_root(tree, x, x_end, margin);
+  return cull_from_root(tree, x, x_end, margin, threads);
 }
 
 bool SelfCollisionCulling::boundary_clear(int node, const Vec3& axis, const Positions& x, const Positions& x_end,

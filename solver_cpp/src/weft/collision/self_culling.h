@@ -67,7 +67,7 @@ class SelfCollisionCulling {
   std::vector<char> connected_;                         // per node
   std::vector<std::vector<std::array<int, 2>>> boundary_;  // per node: edges used by one of its faces
   // The top-down pass from test_: the first passing node on each path is culled.
-  int cull_from_root(const AabbTree& tree, const Positions& x, const Positions& x_end, double margin);
+  int cull_from_root(const AabbTree& tree, const Positions& x, const Positions& x_end, double margin, int threads);
 
   std::vector<int> leaf_order_;                         // faces in tree order: each node's are contiguous
   std::vector<int> first_, last_;                       // per node: its faces are leaf_order_[first_, last_)
@@ -78,6 +78,7 @@ class SelfCollisionCulling {
   std::vector<int> no_cone_count_;                      // prefix counts of no_cone_ in leaf order
   std::vector<char> culled_;                            // per node, per update
   std::vector<signed char> test_;                       // per node: last test's result, -1 not run
+  std::vector<int> frontier_, next_frontier_;           // cull_from_root(): the nodes of one depth
   std::vector<int> parent_, leaf_node_;                 // per node its parent (-1: root); per face its leaf
   double last_margin_ = -1.0;                           // margin of the last update (-1: none yet)
 };
