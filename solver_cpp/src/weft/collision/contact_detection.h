@@ -168,7 +168,8 @@ class ContactDetection {
   AabbTree cloth_tree_;
   std::vector<Aabb> cloth_boxes_;
   std::vector<Aabb> cloth_start_boxes_, cloth_end_boxes_;  // of a moving refit, as Body's
-  SweepFrame sweep_frame_;        // collect(): picks body_shift_
+  SweepFrame sweep_frame_;        // collect(): picks self_shift_
+  std::vector<SweepFrame> body_sweep_frames_;  // collect(): per body, picks its body_shift_
   std::vector<Vec3> body_shift_;  // per body: the sweep frame of the step's swept lists
   Vec3 self_shift_ = Vec3::Zero();  // the cloth's with itself
   SweptPlanes cloth_planes_;  // collect(), collect_changed()
@@ -186,6 +187,8 @@ class ContactDetection {
   std::vector<char> body_plain_;               // per body: the filter skips nothing against it
   std::vector<int> vertex_bodies_;             // collect(): bodies whose proximity pairs are found per vertex
   std::vector<std::array<int, 2>> reach_edges_;  // point_pairs(): the bodies' edges that get edge pairs
+  // Triangle pairs (or points) per parallel chunk of the plane test and expansion (collect).
+  static constexpr std::int64_t kExpandChunk = 512;
   std::vector<int> fit_list_;  // refit_bodies(): the colliding bodies
   std::vector<std::int64_t> point_start_;  // point_pairs(): where each of vertex_bodies_ starts in a pass
   int threads_ = 1;
