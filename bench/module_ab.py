@@ -13,7 +13,9 @@ before the change, or `cmake -S solver_cpp -B /tmp/other -DWEFT_BUILD_PYTHON=ON`
     python -m bench.module_ab --scene drape_sphere --module before=/tmp/a.so --module after=/tmp/b.so \
         --threads 1 --repeat 2 [--frames 48] [--save-positions] [--json PATH]
 
-`--scene` also takes a shot file (`scenes/generated/demo_flag.yaml`, after `python scenes/generate.py`).
+`--scene` also takes a shot file (`scenes/generated/demo_flag.yaml`, after `python scenes/generate.py`),
+or `sheet:N`: `weft bench solver`'s N x N sheet (pinned at two corners, in wind; 3 frames unless
+`--frames` says otherwise), for the linear system at a size of its own.
 
 `--module NAME=PATH` may name the installed build: `--module now=installed`.
 """
@@ -34,6 +36,16 @@ from pathlib import Path  # noqa: E402
 from typing import Any  # noqa: E402
 
 SHOT_SUFFIXES = (".yaml", ".yml", ".json")  # --scene given as a shot file
+SHEET_PREFIX = "sheet:"  # --scene sheet:N, `weft bench solver`'s N x N sheet
+SHEET_FRAMES = 3
+
+
+def sheet_side(scene: str) -> int | None:
+    """N of a `sheet:N` scene (None for other scenes; 0 when N is not an integer of at least 2)."""
+    if not scene.startswith(SHEET_PREFIX):
+        return None
+    text = scene[len(SHEET_PREFIX):]
+    return int(text) if text.isdigit() and int(text) >= 2 else 0
 COLUMNS = ("build_seconds_per_frame", "solve_seconds_per_frame", "setup_seconds_per_frame",
            "collision_seconds_per_frame", "collision_broad_phase_seconds_per_frame",
            "collision_proximity_seconds_per_frame", "ccd_candidates_per_frame", "broad_phase_pairs_per_frame",
@@ -64,7 +76,18 @@ def child(scene_name: str, module: str, frames: int, threads: int, positions: st
     from bench.contact import DEFAULT_FRAMES, build_scene, run_weft, weft_breakdown
 
     with tempfile.TemporaryDirectory() as directory:
-        if Path(scene_name).suffix in SHOT_SUFFIXES:
+        side = sheet_side(scene_name)
+        if side:
+            from bench.solver_bench import sheet_document
+            from regress.runs import resolve
+
+            frames = frames or SHEET_FRAMES
+            document = sheet_document(side)
+            document["frame_range"] = [1, frames]
+            path = Path(directory) / f"sheet_{side}.json"
+            path.write_text(json.dumps(document))
+            scene = resolve(path)
+        elif Path(scene_name).suffix in SHOT_SUFFIXES:
             from regress.runs import resolve
 
             scene = resolve(Path(scene_name))
@@ -109,7 +132,7 @@ def main(argv: list[str] | None = None) -> int:
 
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--scene", default="drape_sphere",
-                        help="a contact scene (" + ", ".join(SCENES) + ") or a shot file (.yaml, .json)")
+                        help="a contact scene (" + ", ".join(SCENES) + "), a shot file (.yaml, .json) or sheet:N")
     parser.add_argument("--module", action="append", default=[], metavar="NAME=PATH",
                         help="a build of weft._solver to run ('installed' for the one in use); two or more")
     parser.add_argument("--threads", type=int, default=1)
@@ -119,7 +142,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--json", type=Path, help="also write every run's figures here")
     parser.add_argument("--child", nargs=2, metavar=("MODULE", "POSITIONS"), help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
-    if Path(args.scene).suffix in SHOT_SUFFIXES:
+    side = sheet_side(args.scene)
+    if side is not None:
+        if not side:
+            parser.error(f"--scene {args.scene!r}: expected sheet:N with N an integer of at least 2")
+    elif Path(args.scene).suffix in SHOT_SUFFIXES:
         if not Path(args.scene).is_file():
             parser.error(f"--scene {args.scene}: no such shot file")
     elif args.scene not in SCENES:

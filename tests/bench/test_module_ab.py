@@ -41,7 +41,19 @@ def test_a_shot_file_runs_as_a_scene(tmp_path: Path) -> None:
     assert runs["one"][0]["cg_iterations_per_substep"] == runs["two"][0]["cg_iterations_per_substep"] > 0.0
 
 
+def test_a_bench_sheet_runs_at_a_size_of_its_own(tmp_path: Path) -> None:
+    out = tmp_path / "ab.json"
+    assert main(["--scene", "sheet:12", "--module", "one=installed", "--module", "two=installed", "--repeat", "1",
+                 "--save-positions", "--json", str(out)]) == 0
+    report = json.loads(out.read_text())
+    assert report["bitwise"] == {"one": True, "two": True}
+    run = report["runs"]["one"][0]
+    assert run["failure"] is None and run["cg_iterations_per_substep"] > 0.0
+
+
 @pytest.mark.parametrize("argv, message", [
+    (["--scene", "sheet:x", "--module", "a=installed", "--module", "b=installed"], "sheet:N"),
+    (["--scene", "sheet:1", "--module", "a=installed", "--module", "b=installed"], "sheet:N"),
     (["--module", "a=installed"], "at least two builds"),
     (["--module", "a=installed", "--module", "b"], "expected NAME=PATH"),
     (["--module", "a=installed", "--module", "b=/no/such/module.so"], "no such file"),
