@@ -36,6 +36,7 @@ ContactDetection::ContactDetection(const Faces& cloth_faces, const Positions& x,
     state.collide = body_collide[b] != 0;
     if (!state.collide) continue;
     any_body_ = true;
+    colliding_.push_back(static_cast<int>(b));
     state.vertex_count = bodies[b].vertex_count();
     state.faces = bodies[b].faces();
     state.own = assign_features(state.faces, bodies[b].vertex_count());
@@ -90,16 +91,12 @@ bool ContactDetection::choose_sweep_frames(const CollisionStep& step) {
                           : Vec3::Zero();
   // Each body's frame from its own vertices and the cloth near it (a SweepFrame of its own for
   // scratch): the bodies in parallel, the same shifts for any thread count.
-  fit_list_.clear();
-  for (size_t b = 0; b < bodies_.size(); ++b) {
-    body_shift_[b] = Vec3::Zero();
-    if (bodies_[b].collide) fit_list_.push_back(static_cast<int>(b));
-  }
+  std::fill(body_shift_.begin(), body_shift_.end(), Vec3::Zero());
   body_sweep_frames_.resize(bodies_.size());
-  const int count = static_cast<int>(fit_list_.size());
+  const int count = static_cast<int>(colliding_.size());
 #pragma omp parallel for schedule(dynamic, 1) num_threads(threads_) if (threads_ > 1 && count > 1)
   for (int i = 0; i < count; ++i) {
-    const int b = fit_list_[i];
+    const int b = colliding_[i];
     const Body& state = refit_body(b, step.body_start[b], step.body_end[b]);
     Aabb reach = state.tree.bounds();
     reach.inflate(largest_margin_);
@@ -142,15 +139,12 @@ const ContactDetection::Body& ContactDetection::refit_body(int body, const Posit
 }
 
 void ContactDetection::refit_bodies(const CollisionStep& step, bool swept) {
-  fit_list_.clear();
-  for (size_t b = 0; b < bodies_.size(); ++b)
-    if (bodies_[b].collide) fit_list_.push_back(static_cast<int>(b));
-  const int count = static_cast<int>(fit_list_.size());
+  const int count = static_cast<int>(colliding_.size());
   // Each body's boxes, tree and planes are its own: a thread per body (a nested region inside
   // runs on one thread), the same values for any thread count.
 #pragma omp parallel for schedule(dynamic, 1) num_threads(threads_) if (threads_ > 1 && count > 1)
   for (int i = 0; i < count; ++i) {
-    const int b = fit_list_[i];
+    const int b = colliding_[i];
     const Positions& start = step.body_start[b];
     const Positions& end = swept ? step.body_end[b] : start;
     refit_body(b, start, end);

@@ -189,7 +189,7 @@ class ContactDetection {
   std::vector<std::array<int, 2>> reach_edges_;  // point_pairs(): the bodies' edges that get edge pairs
   // Triangle pairs (or points) per parallel chunk of the plane test and expansion (collect).
   static constexpr std::int64_t kExpandChunk = 512;
-  std::vector<int> fit_list_;  // refit_bodies(): the colliding bodies
+  std::vector<int> colliding_;  // the bodies that collide, in order
   std::vector<std::int64_t> point_start_;  // point_pairs(): where each of vertex_bodies_ starts in a pass
   int threads_ = 1;
 };
