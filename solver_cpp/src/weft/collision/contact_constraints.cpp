@@ -45,9 +45,7 @@ void ContactConstraints::constrain(const Positions& x, const Positions& v, doubl
   };
   const Faces& cloth_faces = detection.cloth_faces();
   const auto face_count = static_cast<std::int64_t>(cloth_faces.rows());
-  std::vector<int> bodies;
-  for (size_t b = 0; b < detection.bodies().size(); ++b)
-    if (detection.bodies()[b].collide) bodies.push_back(static_cast<int>(b));
+  const std::vector<int>& bodies = detection.colliding();
   detection.refit_bodies(step, false);
   std::vector<Near> nearby;
   // clear_[v] is written by the chunk owning v only (each vertex has one owning face).

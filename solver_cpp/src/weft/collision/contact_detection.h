@@ -138,6 +138,8 @@ class ContactDetection {
   // Body b's sweep frame in the last swept collect (zero: the world's).
   const Vec3& body_shift(int b) const { return body_shift_[b]; }
   bool any_body() const { return any_body_; }
+  // The bodies that collide, in order.
+  const std::vector<int>& colliding() const { return colliding_; }
   // Threads of the narrow filtering and expansion in collect(); its lists are the same for any count.
   void set_threads(int threads) { threads_ = threads; }
   int threads() const { return threads_; }
