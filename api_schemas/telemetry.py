@@ -56,6 +56,9 @@ class FrameTelemetry(BaseModel):
     gia_pinched_body_pairs: int = Field(
         0, description="body pairs pinched, becoming pinched or becoming unpinched over a substep, most over the "
                        "frame (GIA)")
+    gia_pinched_part_pairs: int = Field(
+        0, description="pairs of parts of one character whose surfaces close on cloth (facing each other nearer "
+                       "than two cloth thicknesses, cloth between them) over a substep, most over the frame (GIA)")
     gia_self_coloured_vertices: int = Field(
         0, description="cloth vertices coloured by cloth/cloth GIA at a substep's start, most over the frame")
     gia_self_paths: int = Field(

@@ -129,6 +129,16 @@ def weft_breakdown(telemetry: list[Any]) -> dict[str, Any]:
     return out
 
 
+def frames_inside(inside: list[int], telemetry: list[Any]) -> dict[str, int]:
+    """Frames ending with cloth vertices inside a body, and of those the ones no pinch held
+    (no body/body and no part pinch engaged in the frame): GIA's rules allow the first kind only
+    where two bodies or two parts of a character close on the cloth. inside[k] is frame k's
+    count (k = 0 the initial state), telemetry[k - 1] its frame's row."""
+    pinched = [t.gia_pinched_body_pairs + t.gia_pinched_part_pairs > 0 for t in telemetry]
+    flagged = [k for k in range(1, min(len(inside), len(telemetry) + 1)) if inside[k] > 0]
+    return {"inside_frames": len(flagged), "inside_frames_unpinched": sum(not pinched[k - 1] for k in flagged)}
+
+
 def measure(scene: Any, solver: str, run: dict[str, Any], threads: int) -> dict[str, Any]:
     positions = run["positions"]
     bodies = [BodyTrack(b.name, b.faces, np.asarray(b.frames[:len(positions)])) for b in scene.bodies]
@@ -183,6 +193,7 @@ def run_scene(name: str, frames: int | None, threads: int, peer: str | None,
         row.update(scene=name, rest=scene.shot.cloth[0].rest.kind, failure=weft_run["failure"],
                    telemetry=weft_breakdown(weft_run["telemetry"]),
                    telemetry_frames=[t.model_dump() for t in weft_run["telemetry"]])
+        row.update(frames_inside(row["per_frame"]["inside"], weft_run["telemetry"]))
         if repeat > 1:
             repeated_timing(row, [r["frame_seconds"] for r in weft_runs])
             # weft is deterministic: every repeat must give the first run's positions, bit for bit.
@@ -260,6 +271,8 @@ def format_tables(rows: list[dict[str, Any]]) -> list[Any]:
         note = r.get("rest", "") if r["solver"] == "weft, self off" else "rest: " + r.get("rest", "")
         if r.get("failure"):
             note += f"; stopped: {r['failure'][:60]}"
+        if r.get("inside_frames"):
+            note += f"; inside in {r['inside_frames']} frames, {r['inside_frames_unpinched']} unpinched"
         if r.get("repeats_identical") is False:
             note += "; REPEATS DIFFER"
         main.add_row(

@@ -187,6 +187,26 @@ def sleeve_shot(directory: Path, frames: int = 24, swing_frames: int = 4, amplit
     return doc
 
 
+def sheet_between(name: str, directory: Path, n: int, width: float, substeps: int,
+                  fixed: tuple[str, np.ndarray, np.ndarray],
+                  moving: tuple[str, np.ndarray, np.ndarray]) -> dict[str, Any]:
+    """A `width` sheet (n x n) lying 2.5 mm above y = 0, centred, on a fixed body, with a body
+    animated over it: `fixed` (name, vertices, faces) and `moving` (name, per-frame vertices,
+    faces; the animation is written to `directory`/<name>.npz). One frame per keyframe."""
+    fixed_name, fixed_v, fixed_f = fixed
+    moving_name, animation, moving_f = moving
+    directory.mkdir(parents=True, exist_ok=True)
+    np.savez(directory / f"{moving_name}.npz", positions=animation)
+    doc = sheet_shot(name, n, n, width, width, plane="xz", origin=(-width / 2, 0.0025, -width / 2),
+                     frames=len(animation), substeps=substeps, material={"friction": 0.5, "damping": 0.01},
+                     air_drag=0.2)
+    doc["bodies"] = [
+        {"name": fixed_name, "mesh": inline_mesh(fixed_v, fixed_f)},
+        {"name": moving_name, "mesh": inline_mesh(animation[0], moving_f), "animation": {"path": f"{moving_name}.npz"}},
+    ]
+    return doc
+
+
 def box_pinch_shot(directory: Path, n: int = 16, width: float = 0.35, close: int = 5, hold: int = 6,
                    after: int = 8, depth: float = 0.003, travel: float = 0.05, substeps: int = 4,
                    gia: bool | None = None) -> dict[str, Any]:
@@ -202,15 +222,32 @@ def box_pinch_shot(directory: Path, n: int = 16, width: float = 0.35, close: int
     bottoms = ([travel - step * k for k in range(close + 1)] + [-depth] * (hold - 1)
                + [-depth + step * k for k in range(close + 1)] + [travel] * after)
     animation = np.stack([upper_v + [0.0, b, 0.0] for b in bottoms])
-    directory.mkdir(parents=True, exist_ok=True)
-    np.savez(directory / "upper.npz", positions=animation)
-    doc = sheet_shot("box_pinch", n, n, width, width, plane="xz", origin=(-width / 2, 0.0025, -width / 2),
-                     frames=len(bottoms), substeps=substeps, material={"friction": 0.5, "damping": 0.01},
-                     air_drag=0.2)
-    doc["bodies"] = [
-        {"name": "lower", "mesh": inline_mesh(lower_v, lower_f)},
-        {"name": "upper", "mesh": inline_mesh(animation[0], upper_f), "animation": {"path": "upper.npz"}},
-    ]
+    doc = sheet_between("box_pinch", directory, n, width, substeps, ("lower", lower_v, lower_f),
+                        ("upper", animation, upper_f))
     if gia is not None:
         doc["features"] = {"gia": gia}
+    return doc
+
+
+def part_sweep_shot(directory: Path, n: int = 16, width: float = 0.3, gap: float = 0.001, sweep: int = 36,
+                    after: int = 6, substeps: int = 4, group: bool = True) -> dict[str, Any]:
+    """Cloth squeezed between two parts of one character (`group`: both bodies in the group
+    "character"; False: two separate bodies). A `width` sheet lies 2.5 mm above a fixed 0.4 x
+    0.1 x 0.4 m block (top at y = 0), the "torso"; a capsule of radius 4 cm lying along z, the
+    "arm", its lowest line `gap` above the block's top (closer than the cloth can lie between
+    them), rolls without turning along x across the whole sheet over `sweep` frames from
+    x = -0.35 to 0.35, then stays there `after` frames. The arm's animation is written to
+    `directory`/arm.npz."""
+    from scenes.contact import capsule_mesh
+
+    torso_v, torso_f = box_mesh((0.4, 0.1, 0.4), (0.0, -0.05, 0.0))
+    radius = 0.04
+    arm_v, arm_f = capsule_mesh((0.0, radius + gap, -0.25), (0.0, radius + gap, 0.25), radius, sections=24)
+    xs = [-0.35 + 0.7 * k / sweep for k in range(sweep + 1)] + [0.35] * after
+    animation = np.stack([arm_v + [x, 0.0, 0.0] for x in xs])
+    doc = sheet_between("part_sweep", directory, n, width, substeps, ("torso", torso_v, torso_f),
+                        ("arm", animation, arm_f))
+    if group:
+        for body in doc["bodies"]:
+            body["group"] = "character"
     return doc

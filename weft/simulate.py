@@ -72,8 +72,13 @@ def simulate(scene: Scene, sim: Any = None, threads: int = 1, start: int = 1,
 
 
 def telemetry_row(frame: int, t: Any) -> FrameTelemetry:
-    """The schema's row for a simulated frame, read field by field from the solver's record."""
-    return FrameTelemetry(frame=frame, **{k: getattr(t, k) for k in FrameTelemetry.model_fields if k != "frame"})
+    """The schema's row for a simulated frame, read field by field from the solver's record. A
+    figure the schema gives a default for and the record lacks (an older build of the solver,
+    as `bench.module_ab` loads) takes that default; a required one must be there."""
+    fields = FrameTelemetry.model_fields
+    return FrameTelemetry(frame=frame, **{
+        k: getattr(t, k) if info.is_required() or hasattr(t, k) else info.default
+        for k, info in fields.items() if k != "frame"})
 
 
 def initial_telemetry(frame: int, sim: Any) -> FrameTelemetry:

@@ -106,6 +106,8 @@ void bind_collision(py::module_& m) {
       .def_readwrite("contact_constraints", &CollisionSettings::contact_constraints)
       .def_readwrite("gia", &CollisionSettings::gia)
       .def_readwrite("body_pinch", &CollisionSettings::body_pinch)
+      .def_readwrite("part_pinch", &CollisionSettings::part_pinch)
+      .def_readwrite("local_aside", &CollisionSettings::local_aside)
       .def_readwrite("self_culling", &CollisionSettings::self_culling)
       .def_readwrite("body_group", &CollisionSettings::body_group)
       .def_readwrite("body_offset", &CollisionSettings::body_offset)
@@ -148,6 +150,8 @@ void bind_collision(py::module_& m) {
                              [](const FrameTelemetry& t) { return t.collision.gia_body_coloured_faces; })
       .def_property_readonly("gia_pinched_body_pairs",
                              [](const FrameTelemetry& t) { return t.collision.gia_pinched_body_pairs; })
+      .def_property_readonly("gia_pinched_part_pairs",
+                             [](const FrameTelemetry& t) { return t.collision.gia_pinched_part_pairs; })
       .def_property_readonly("gia_gripped_vertices",  // diagnostic, not a cache column
                              [](const FrameTelemetry& t) { return t.collision.gia_gripped_vertices; })
       .def_property_readonly("gia_self_coloured_vertices",

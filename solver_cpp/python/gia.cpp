@@ -177,6 +177,8 @@ py::list pair_list(const BodyPinchTracker& tracker) {
     py::dict d;
     d["a"] = p.a;
     d["b"] = p.b;
+    d["parts"] = p.parts;
+    d["yields"] = p.yields;
     d["state"] = state_name(p.state());
     d["start"] = p.start;
     d["end"] = p.end;
@@ -190,8 +192,15 @@ py::list pair_list(const BodyPinchTracker& tracker) {
 struct PyPinchTracker {
   std::vector<Faces> faces;
   BodyPinchTracker tracker;
-  PyPinchTracker(std::vector<Faces> f, int threads)
-      : faces(std::move(f)), tracker(all_ids(faces.size()), threads) {}
+  PyPinchTracker(std::vector<Faces> f, int threads, std::vector<int> group, double part_gap)
+      : faces(std::move(f)), tracker(all_ids(faces.size()), threads, tracking(std::move(group), part_gap)) {}
+  static PinchTracking tracking(std::vector<int> group, double part_gap) {
+    if (!(part_gap >= 0.0)) throw std::invalid_argument("part_gap must be >= 0");
+    PinchTracking t;
+    t.group = std::move(group);
+    t.part_gap = part_gap;
+    return t;
+  }
   static std::vector<int> all_ids(size_t n) {
     std::vector<int> ids(n);
     for (size_t i = 0; i < n; ++i) ids[i] = static_cast<int>(i);
@@ -237,10 +246,14 @@ void bind_pinch(py::module_& m) {
   py::class_<PyPinchTracker>(m, "BodyPinchTracker",
                              "Body/body pinch states over steps (body_pinch.h); the end of each update is kept for "
                              "the next.")
-      .def(py::init<std::vector<Faces>, int>(), py::arg("faces"), py::arg("threads") = 0)
+      .def(py::init<std::vector<Faces>, int, std::vector<int>, double>(), py::arg("faces"), py::arg("threads") = 0,
+           py::arg("group") = std::vector<int>{}, py::arg("part_gap") = 0.0,
+           "group: per body, the character it is a part of (-1: none); pairs of parts are tracked by their facing "
+           "gap (part_gap.h) when part_gap > 0, else not at all.")
       .def("update", &PyPinchTracker::update, py::arg("start"), py::arg("end"),
            "Positions of every body at the step's start and end; returns per body pair a dict with a, b, "
-           "state (free, becoming_pinched, pinched, becoming_unpinched), start, end, region.");
+           "parts (a pair of parts of one character), yields (of parts: the one CCD gives way to, -1 before the first "
+           "test), state (free, becoming_pinched, pinched, becoming_unpinched), start, end, region.");
 
   auto simulation = py::reinterpret_borrow<py::class_<Simulation>>(m.attr("Simulation"));
   simulation.def(

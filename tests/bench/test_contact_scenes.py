@@ -224,3 +224,19 @@ def test_perturb_must_not_be_negative() -> None:
     with pytest.raises(SystemExit) as exc:
         main(["--perturb", "-1", "--scenes", "sleeve_swing"])
     assert exc.value.code == 2
+
+
+def test_frames_inside_tells_pinched_frames_from_the_rest() -> None:
+    from api_schemas.telemetry import FrameTelemetry
+
+    from bench.contact import frames_inside
+
+    def row(frame: int, body: int = 0, part: int = 0) -> FrameTelemetry:
+        zeros = {name: 0 for name, info in FrameTelemetry.model_fields.items() if info.is_required()}
+        return FrameTelemetry(**{**zeros, "frame": frame, "gia_pinched_body_pairs": body,
+                                 "gia_pinched_part_pairs": part})
+
+    telemetry = [row(1), row(2, part=2), row(3, body=1), row(4)]
+    # The initial state (index 0) is not a simulated frame; frames 2 and 3 are pinched.
+    assert frames_inside([5, 0, 3, 1, 2], telemetry) == {"inside_frames": 3, "inside_frames_unpinched": 1}
+    assert frames_inside([0, 0, 0, 0, 0], telemetry) == {"inside_frames": 0, "inside_frames_unpinched": 0}

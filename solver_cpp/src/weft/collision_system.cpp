@@ -111,10 +111,17 @@ CollisionSystem::CollisionSystem(const Faces& cloth_faces, const Positions& x, c
   std::vector<int> pinch_bodies;
   for (size_t b = 0; b < detection_.bodies().size(); ++b)
     if (detection_.bodies()[b].collide) pinch_bodies.push_back(static_cast<int>(b));
-  if (settings_.gia > 0 && settings_.body_pinch && pinch_bodies.size() >= 2) {
+  // Pairs of parts of one character are tracked by their facing gap (part_gap.h) whenever GIA
+  // is on or auto: parts of a character move against each other in every shot that has one.
+  PinchTracking tracking;
+  tracking.group = settings_.body_group;
+  tracking.body_pairs = settings_.gia > 0 && settings_.body_pinch;
+  tracking.part_gap = gia_ && settings_.part_pinch ? 2.0 * props_.default_thickness : 0.0;
+  tracking.body_offset = settings_.body_offset;
+  if ((tracking.body_pairs || tracking.part_gap > 0.0) && pinch_bodies.size() >= 2) {
     pinch_ = std::make_unique<PinchDriver>(pinch_bodies, static_cast<int>(bodies.size()), vertex_count, threads_,
-                                           settings_.body_group);
-    if (pinch_->tracker().pairs().empty()) pinch_.reset();  // one articulated character: no pair to track
+                                           tracking);
+    if (pinch_->tracker().pairs().empty()) pinch_.reset();  // nothing to track
   }
   filter_ = std::make_unique<Filter>(*this);
   if (!face_rest_lengths.empty()) strain_limit_ = StrainLimit(cloth_faces, face_rest_lengths, settings_.max_strain);
@@ -153,12 +160,29 @@ void CollisionSystem::constrain_contacts(const Positions& x, const Positions& v,
   // recovery and grip decide and CCD is off in places: a constraint holding cloth against a
   // body there (and its friction) could lock a tangle. The impulses take over until the state
   // is clean again.
-  if (contacts_aside_ || (pinch_ && pinch_->active_pairs() > 0)) {
+  // A pinch between parts of one character (an arm along the torso) squeezes a few vertices of
+  // a garment held against the whole body by its constraints: only those, and the cloth GIA
+  // found inside a body, are set aside (aside_local_).
+  if ((contacts_aside_ || (pinch_ && pinch_->engaged_pairs() > 0)) && !aside_local_) {
     constraints_.forget();
     return;
   }
   body_positions(bodies, alpha0, alpha1);
-  constraints_.constrain(x, v, h, step_, detection_, props_, filter, frame_);
+  constraints_.constrain(x, v, h, step_, detection_, props_, filter, frame_, aside_local_ ? &aside_ : nullptr);
+}
+
+void CollisionSystem::mark_aside() {
+  const Faces& faces = detection_.cloth_faces();
+  aside_.assign(step_.x->rows(), 0);
+  for (int b : detection_.colliding()) {
+    for (int f = 0; f < faces.rows(); ++f) {
+      const bool pinched = pinch_->face_in_region(f, b);
+      bool coloured = false;
+      for (int k = 0; k < 3 && gia_bodies_ && !coloured; ++k) coloured = gia_bodies_->coloured(faces(f, k), b);
+      if (pinched || coloured)
+        for (int k = 0; k < 3; ++k) aside_[faces(f, k)] = 1;
+    }
+  }
 }
 
 void CollisionSystem::redetect(std::vector<int>& hits) {
@@ -171,7 +195,7 @@ void CollisionSystem::respond(const Positions& x, Positions& v, double h, const 
   step_.begin(x, v, h);
   body_positions(bodies, alpha0, alpha1);
   constraints_.friction(step_, props_);
-  if (pinch_) pinch_->update(step_, detection_, props_.default_thickness, frame_);
+  if (pinch_) pinch_->update(step_, detection_, props_.default_thickness, gia_due_, frame_);
   const int unresolved_before = frame_.unresolved;
   bool tangled = false;
   if (gia_ && gia_due_) {
@@ -234,8 +258,12 @@ void CollisionSystem::respond(const Positions& x, Positions& v, double h, const 
     return std::any_of(list.begin(), list.end(), [](const FeaturePair& p) { return !p.ccd; });
   };
   const bool ccd_skipped = !settings_.ccd || skips_ccd(step_.proximity_pairs) || skips_ccd(step_.pairs);
-  contacts_aside_ = tangled || ccd_skipped || frame_.unresolved > unresolved_before;
-  gia_due_ = contacts_aside_ || (pinch_ && pinch_->active_pairs() > 0);
+  const bool unresolved_now = frame_.unresolved > unresolved_before;
+  contacts_aside_ = tangled || ccd_skipped || unresolved_now;
+  aside_local_ = contacts_aside_ && settings_.local_aside && pinch_ && pinch_->engaged_pairs() > 0 &&
+                 pinch_->engaged_part_pairs() == pinch_->engaged_pairs() && !unresolved_now && !untangle_.any();
+  if (aside_local_) mark_aside();
+  gia_due_ = contacts_aside_ || (pinch_ && pinch_->engaged_pairs() > 0);
   // Cloth/cloth intersection can only have been created where CCD did not vouch for a
   // cloth/cloth pair: none of them left unresolved, no untangling under way, CCD on.
   self_due_ = untangle_.any() || cloth_pairs_unresolved || !settings_.ccd;
@@ -272,6 +300,7 @@ CollisionTelemetry CollisionSystem::end_frame(const Positions& x, const std::vec
     if (cloth_cloth > 0) self_due_ = true;
     if (frame_.intersections > 0) gia_due_ = true;
     contacts_aside_ = frame_.intersections > 0;  // what a run resumed at this frame sees too
+    aside_local_ = false;
     frame_.intersection_seconds += timer.seconds();
   }
   return frame_;

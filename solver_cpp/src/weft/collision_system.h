@@ -83,6 +83,8 @@ class CollisionSystem {
   void body_positions(const std::vector<KinematicBody>& bodies, double alpha0, double alpha1);
   // Detection and CCD against the current velocities (the impact zones' re-detection).
   void redetect(std::vector<int>& hits);
+  // aside_ from the pinch regions and GIA's colouring of the step that just ended.
+  void mark_aside();
 
   CollisionSettings settings_;
   int threads_;
@@ -105,6 +107,12 @@ class CollisionSystem {
   std::unique_ptr<Filter> filter_;
   CcdResponse ccd_;
   bool contacts_aside_ = false;  // contact constraints left to the impulses (constrain_contacts)
+  // contacts_aside_ for the cloth near what set it only: the last step engaged pinches between
+  // parts of one character and nothing else (no body/body pinch, no pair left unresolved, no
+  // cloth/cloth tangle). The cloth in or at those pinch regions and the cloth coloured inside a
+  // body, with its faces' other corners, is set aside (aside_); the rest keeps its constraints.
+  bool aside_local_ = false;
+  std::vector<char> aside_;
   int zone_pass_limit_ = 0;
   StrainLimit strain_limit_;  // with settings_.max_strain and the cloth's rest lengths
   ContactConstraints constraints_;

@@ -121,13 +121,13 @@ struct TwoBoxes {
                                                    std::vector<double>{0.002}, c.bodies, std::vector<char>{1, 1});
     step.begin(c.x, c.v, 0.01);
     body_step(step, c.bodies);
-    pinch.update(step, *detection, 0.002, frame);
+    pinch.update(step, *detection, 0.002, true, frame);
   }
 };
 
 TEST(PinchDriver, ClothBetweenIntersectingBoxesGetsNoCcd) {
   TwoBoxes t(box(Vec3(-0.5, -0.5, -0.01), Vec3(0.5, 0.5, 1)));  // into the lower box
-  EXPECT_EQ(t.pinch.active_pairs(), 1);
+  EXPECT_EQ(t.pinch.engaged_pairs(), 1);
   EXPECT_EQ(t.frame.gia_pinched_body_pairs, 1);
   EXPECT_TRUE(t.pinch.face_in_region(0, 0));
   EXPECT_TRUE(t.pinch.face_in_region(0, 1));
@@ -140,7 +140,7 @@ TEST(PinchDriver, ClothBetweenIntersectingBoxesGetsNoCcd) {
 
 TEST(PinchDriver, SeparateBoxesAreFree) {
   TwoBoxes t(box(Vec3(2, 2, 2), Vec3(3, 3, 3)));
-  EXPECT_EQ(t.pinch.active_pairs(), 0);
+  EXPECT_EQ(t.pinch.engaged_pairs(), 0);
   EXPECT_FALSE(t.pinch.face_in_region(0, 1));
 }
 

@@ -20,6 +20,7 @@ void CollisionTelemetry::add(const CollisionTelemetry& o) {
   gia_paths = std::max(gia_paths, o.gia_paths);
   gia_body_coloured_faces = std::max(gia_body_coloured_faces, o.gia_body_coloured_faces);
   gia_pinched_body_pairs = std::max(gia_pinched_body_pairs, o.gia_pinched_body_pairs);
+  gia_pinched_part_pairs = std::max(gia_pinched_part_pairs, o.gia_pinched_part_pairs);
   gia_gripped_vertices += o.gia_gripped_vertices;
   gia_self_coloured_vertices = std::max(gia_self_coloured_vertices, o.gia_self_coloured_vertices);
   gia_self_paths = std::max(gia_self_paths, o.gia_self_paths);

@@ -15,7 +15,8 @@ struct CollisionSettings {
   std::vector<char> face_self_collide;  // per cloth face: cloth/cloth (empty: none)
   std::vector<char> body_collide;       // per body (empty: all)
   // Per body: the articulated character it is a part of (-1 or empty: its own). Parts of one
-  // character may overlap at joints; they are never a body/body pinch (body_pinch.h).
+  // character may overlap at joints; their overlap is never a body/body pinch (body_pinch.h),
+  // their surfaces closing on cloth are (part_pinch).
   std::vector<int> body_group;
   VectorX face_thickness;               // per cloth face, m (empty: 0.002)
   // Per body: extra separation the cloth keeps from it, m, added to the cloth's thickness (a
@@ -36,6 +37,14 @@ struct CollisionSettings {
   // Body/body pinch states (body_pinch.h) when gia is 1 and two or more bodies collide: CCD off
   // for cloth where two bodies intersect each other. Off only to compare (tests, diagnosis).
   bool body_pinch = true;
+  // Pinches between parts of one character (gia on or auto, two or more colliding parts in a
+  // group; body_pinch.h, part_gap.h): CCD off for cloth where two parts' surfaces face each
+  // other closer than two cloth thicknesses. Off only to compare (tests, benchmarks).
+  bool part_pinch = true;
+  // While only such pinches (and the cloth GIA finds inside a body) hold the collision stage
+  // off its clean state, the contact constraints stay on for the cloth away from them
+  // (collision_system.h, aside_local_). Off only to compare.
+  bool local_aside = true;
   // Normal-cone culling of self-collision pairs inside patches that cannot touch themselves
   // (self_culling.h). Off only to compare (tests, benchmarks).
   bool self_culling = true;
@@ -67,6 +76,7 @@ struct CollisionTelemetry {
   int gia_paths = 0;              // cloth/body intersection paths at a substep start, most over the frame
   int gia_body_coloured_faces = 0;  // body faces in intersection with the cloth, most over the frame
   int gia_pinched_body_pairs = 0;  // body pairs not free over a substep (body_pinch.h), most over the substeps
+  int gia_pinched_part_pairs = 0;  // pairs of parts of one character closing on cloth (part_gap.h), most over them
   int gia_gripped_vertices = 0;    // cloth vertices moved with a body in a pinch, summed over substeps (not a column)
   int gia_self_coloured_vertices = 0;  // cloth/cloth GIA: coloured vertices, most over the substeps
   int gia_self_paths = 0;              // cloth/cloth GIA: intersection paths, most over the substeps

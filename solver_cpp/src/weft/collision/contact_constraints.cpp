@@ -23,7 +23,8 @@ constexpr std::int64_t kChunk = 256;
 
 void ContactConstraints::constrain(const Positions& x, const Positions& v, double h, const CollisionStep& step,
                                    ContactDetection& detection, const ContactProperties& props,
-                                   ConstraintFilter& filter, CollisionTelemetry& frame) {
+                                   ConstraintFilter& filter, CollisionTelemetry& frame,
+                                   const std::vector<char>* aside) {
   const Timer timer;
   const int vertex_count = static_cast<int>(x.rows());
   if (released_.size() != static_cast<size_t>(vertex_count)) released_.assign(vertex_count, 0);
@@ -103,7 +104,11 @@ void ContactConstraints::constrain(const Positions& x, const Positions& v, doubl
     best[near.contact.vertex] = near.distance;
     contact[near.contact.vertex] = near.contact;
   }
-  const std::vector<char> was_released = released_, was_held = held_;
+  // A vertex set aside is treated as released: no vertex or edge contact, nothing kept.
+  std::vector<char> was_released = released_;
+  const std::vector<char> was_held = held_;
+  if (aside)
+    for (int i = 0; i < vertex_count; ++i) was_released[i] |= (*aside)[i];
   std::fill(released_.begin(), released_.end(), 0);
   std::fill(held_.begin(), held_.end(), 0);
   for (int i = 0; i < vertex_count; ++i) {

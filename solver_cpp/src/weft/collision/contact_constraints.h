@@ -36,9 +36,11 @@ namespace weft {
 class ContactConstraints {
  public:
   // step.body_start/body_end must hold the step's body positions; x, v the solve's state.
+  // aside: per cloth vertex, 1 where no constraint may act (cloth a part pinch squeezes or a
+  // body holds coloured inside it: collision_system.cpp); null: none.
   void constrain(const Positions& x, const Positions& v, double h, const CollisionStep& step,
                  ContactDetection& detection, const ContactProperties& props, ConstraintFilter& filter,
-                 CollisionTelemetry& frame);
+                 CollisionTelemetry& frame, const std::vector<char>* aside = nullptr);
   // After the solve, residual = b - A dv of the solved system: each contact's normal impulse;
   // contacts that pulled are released for the next step. Returns how many pulled.
   int impulses(const VectorX& residual);

@@ -146,6 +146,7 @@ void GiaBodyDriver::recover(CollisionStep& step, const ContactProperties& props,
           if (!state.inside[j]) region_towards[regions.find(i)] += row3(x, j) - row3(x, i);
     for (int i = 0; i < vertex_count_; ++i) {
       if (!state.inside[i] || !vertex_collide_[i] || props.inverse_mass[i] == 0.0) continue;
+      if (pinch && pinch->squeezed(i, body)) continue;  // a part passing over squeezed cloth
       if (!held.empty() && held[regions.find(i)]) {
         (*gripped)[i] = 1;
         pinch->grip(i, faces, start, end, step, frame);
