@@ -11,7 +11,8 @@ targets ask of every frame, over all the copies:
 - worst frame over median frame: each copy's slowest frame over its own median frame, the
   largest over the copies (the issue's bound: 5);
 - frames ending with cloth/body intersections (vertices inside a body part or intersecting
-  triangle pairs), summed over the copies, and the most vertices inside at a frame end;
+  triangle pairs), summed over the copies, of those the frames in which no pinch (body/body or
+  between parts of one character) was engaged, and the most vertices inside at a frame end;
 - substeps halved by the adaptive substepping, summed; the largest edge strain; NaN or a
   stopped run in any copy.
 
@@ -57,12 +58,17 @@ def copy_summary(factor: float, run: dict[str, Any], metrics: dict[str, Any]) ->
     # Frame ends after the initial state; a non-finite frame (None) counts as failing.
     inside = metrics["per_frame"]["inside"][1:]
     pairs = metrics["per_frame"]["cloth_body_pairs"][1:]
-    dirty = sum(1 for a, b in zip(inside, pairs) if a is None or b is None or a > 0 or b > 0)
+    flags = [a is None or b is None or a > 0 or b > 0 for a, b in zip(inside, pairs)]
+    dirty = sum(flags)
+    # Of those, the frames no pinch held (GIA's rules allow intersections only in a pinch).
+    pinched = [t.gia_pinched_body_pairs + t.gia_pinched_part_pairs > 0 for t in run["telemetry"]]
+    unpinched = sum(1 for k, flag in enumerate(flags) if flag and not (k < len(pinched) and pinched[k]))
     return {
         "thickness_factor": factor,
         "s_per_frame_mean": float(seconds.mean()) if len(seconds) else None,
         "worst_over_median_frame": float(seconds.max() / np.median(seconds)) if len(seconds) else None,
         "frames_with_intersections": dirty,
+        "frames_with_intersections_unpinched": unpinched,
         "inside_max": metrics["inside_max"],
         "halved_substeps": int(sum(t.subdivided_substeps for t in run["telemetry"])),
         "max_strain": metrics["max_strain"],
@@ -85,6 +91,7 @@ def summarise(name: str, copies: list[dict[str, Any]]) -> dict[str, Any]:
         "worst_over_median_frame": max(worst) if worst else None,
         "frames_with_intersections": sum(c["frames_with_intersections"] for c in copies),
         "copies_with_intersections": sum(1 for c in copies if c["frames_with_intersections"] > 0),
+        "frames_with_intersections_unpinched": sum(c["frames_with_intersections_unpinched"] for c in copies),
         "inside_max": max(insides) if insides else None,
         "halved_substeps": sum(c["halved_substeps"] for c in copies),
         "max_strain": max(strains) if strains else None,
@@ -107,7 +114,8 @@ def format_table(rows: list[dict[str, Any]], count: int) -> Any:
             r["scene"],
             "-" if lo_hi is None else f"{r['s_per_frame_median']:.3f} ({lo_hi[0]:.3f}-{lo_hi[1]:.3f})",
             "-" if r["worst_over_median_frame"] is None else f"{r['worst_over_median_frame']:.1f}",
-            f"{r['frames_with_intersections']} ({r['copies_with_intersections']}/{len(r['copies'])})",
+            f"{r['frames_with_intersections']} ({r['copies_with_intersections']}/{len(r['copies'])}), "
+            f"{r['frames_with_intersections_unpinched']} unpinched",
             "-" if r["inside_max"] is None else str(r["inside_max"]), str(r["halved_substeps"]),
             "-" if r["max_strain"] is None else f"{r['max_strain']:.2f}", str(r["nan_or_stopped"]),
         )

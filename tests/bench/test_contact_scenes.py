@@ -198,6 +198,7 @@ def test_perturbed_copies_are_summarised_over_every_copy() -> None:
     assert all(c["s_per_frame_mean"] > 0 and c["worst_over_median_frame"] >= 1.0 for c in copies)
     assert row["worst_over_median_frame"] == max(c["worst_over_median_frame"] for c in copies)
     assert row["frames_with_intersections"] == sum(c["frames_with_intersections"] for c in copies)
+    assert row["frames_with_intersections_unpinched"] == sum(c["frames_with_intersections_unpinched"] for c in copies)
     assert row["max_strain"] == max(c["max_strain"] for c in copies) >= 1.0
     lo, hi = row["s_per_frame_range"]
     assert lo <= row["s_per_frame_median"] <= hi
@@ -208,12 +209,17 @@ def test_summary_counts_frames_ending_with_intersections() -> None:
 
     class Row:
         subdivided_substeps = 1
+        gia_pinched_body_pairs = 0
 
-    run = {"frame_seconds": [0.1, 0.1, 0.5], "telemetry": [Row(), Row(), Row()], "failure": None}
+        def __init__(self, part_pinches: int = 0) -> None:
+            self.gia_pinched_part_pairs = part_pinches
+
+    run = {"frame_seconds": [0.1, 0.1, 0.5], "telemetry": [Row(), Row(1), Row()], "failure": None}
     metrics = {"per_frame": {"inside": [0, 0, 3, 0], "cloth_body_pairs": [0, 0, 2, 1]}, "inside_max": 3,
                "max_strain": 1.2, "nan": False}
     summary = copy_summary(1.02, run, metrics)
     assert summary["frames_with_intersections"] == 2  # frame 2 (inside) and 3 (a pair), not the initial state
+    assert summary["frames_with_intersections_unpinched"] == 1  # frame 2 had a part pinch engaged
     assert summary["worst_over_median_frame"] == pytest.approx(5.0)
     assert summary["halved_substeps"] == 3
 
