@@ -157,6 +157,34 @@ def swing_angles(frames: int, swing_frames: int, amplitude: float) -> np.ndarray
     return -amplitude * 0.5 * (1.0 - np.cos(np.pi * k / swing_frames))
 
 
+def capsule_mesh(a, b, radius: float, sections: int = 16, caps: int = 4,
+                 spacing: float = 0.02) -> tuple[np.ndarray, np.ndarray]:
+    """A closed capsule (cylinder with hemispherical ends) from point a to point b: rings of
+    `sections` vertices, `caps` rings per hemisphere, cylinder rings at most `spacing` apart, a
+    pole at each end; outward normals."""
+    import trimesh
+
+    a, b = np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64)
+    length = float(np.linalg.norm(b - a))
+    cap = np.linspace(-np.pi / 2, 0.0, caps + 1)[1:]
+    along = np.linspace(0.0, length, max(2, int(np.ceil(length / spacing)) + 1))
+    profile = ([(radius * np.sin(t), radius * np.cos(t)) for t in cap] + [(z, radius) for z in along[1:-1]]
+               + [(length - radius * np.sin(t), radius * np.cos(t)) for t in cap[::-1]])
+    angles = 2 * np.pi * np.arange(sections) / sections
+    rings = [np.stack([r * np.cos(angles), r * np.sin(angles), np.full(sections, z)], axis=1) for z, r in profile]
+    vertices = np.concatenate(rings + [[[0.0, 0.0, -radius], [0.0, 0.0, length + radius]]])
+    faces = []
+    for i in range(len(rings) - 1):
+        for j in range(sections):
+            p, q = i * sections + j, i * sections + (j + 1) % sections
+            faces += [[p, q, q + sections], [p, q + sections, p + sections]]
+    bottom, top, last = len(vertices) - 2, len(vertices) - 1, (len(rings) - 1) * sections
+    for j in range(sections):
+        faces += [[bottom, (j + 1) % sections, j], [top, last + j, last + (j + 1) % sections]]
+    rotation = trimesh.geometry.align_vectors([0.0, 0.0, 1.0], (b - a) / length)[:3, :3]
+    return vertices @ rotation.T + a, np.asarray(faces, dtype=np.int64)
+
+
 def sleeve_shot(directory: Path, frames: int = 24, swing_frames: int = 4, amplitude: float = np.pi / 2,
                 limb_radius: float = 0.015, sleeve_radius: float = 0.03, substeps: int = 4) -> dict[str, Any]:
     """A sleeve on a thin limb swung fast (a skeleton-like arm): a limb (closed tessellated tube,
@@ -238,8 +266,6 @@ def part_sweep_shot(directory: Path, n: int = 16, width: float = 0.3, gap: float
     them), rolls without turning along x across the whole sheet over `sweep` frames from
     x = -0.35 to 0.35, then stays there `after` frames. The arm's animation is written to
     `directory`/arm.npz."""
-    from scenes.contact import capsule_mesh
-
     torso_v, torso_f = box_mesh((0.4, 0.1, 0.4), (0.0, -0.05, 0.0))
     radius = 0.04
     arm_v, arm_f = capsule_mesh((0.0, radius + gap, -0.25), (0.0, radius + gap, 0.25), radius, sections=24)

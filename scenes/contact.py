@@ -33,7 +33,8 @@ from typing import Any
 import numpy as np
 
 from scenes.builders import inline_mesh, sheet_shot
-from scenes.collision import box_mesh, box_pinch_shot, sleeve_mesh, sleeve_shot, sphere_mesh, tube_mesh
+from scenes.collision import (box_mesh, box_pinch_shot, capsule_mesh, sleeve_mesh, sleeve_shot, sphere_mesh,
+                              tube_mesh)
 
 
 def drape_sphere(directory: Path, n: int = 64, frames: int = 48, width: float = 1.0, radius: float = 0.3,
@@ -84,34 +85,6 @@ def thin_limb(directory: Path, n: int = 32, frames: int = 16, speed: float = 3.0
 
 
 # -- the articulated character ---------------------------------------------------------------------
-
-def capsule_mesh(a, b, radius: float, sections: int = 16, caps: int = 4,
-                 spacing: float = 0.02) -> tuple[np.ndarray, np.ndarray]:
-    """A closed capsule (cylinder with hemispherical ends) from point a to point b: rings of
-    `sections` vertices, `caps` rings per hemisphere, cylinder rings at most `spacing` apart, a
-    pole at each end; outward normals."""
-    import trimesh
-
-    a, b = np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64)
-    length = float(np.linalg.norm(b - a))
-    cap = np.linspace(-np.pi / 2, 0.0, caps + 1)[1:]
-    along = np.linspace(0.0, length, max(2, int(np.ceil(length / spacing)) + 1))
-    profile = ([(radius * np.sin(t), radius * np.cos(t)) for t in cap] + [(z, radius) for z in along[1:-1]]
-               + [(length - radius * np.sin(t), radius * np.cos(t)) for t in cap[::-1]])
-    angles = 2 * np.pi * np.arange(sections) / sections
-    rings = [np.stack([r * np.cos(angles), r * np.sin(angles), np.full(sections, z)], axis=1) for z, r in profile]
-    vertices = np.concatenate(rings + [[[0.0, 0.0, -radius], [0.0, 0.0, length + radius]]])
-    faces = []
-    for i in range(len(rings) - 1):
-        for j in range(sections):
-            p, q = i * sections + j, i * sections + (j + 1) % sections
-            faces += [[p, q, q + sections], [p, q + sections, p + sections]]
-    bottom, top, last = len(vertices) - 2, len(vertices) - 1, (len(rings) - 1) * sections
-    for j in range(sections):
-        faces += [[bottom, (j + 1) % sections, j], [top, last + j, last + (j + 1) % sections]]
-    rotation = trimesh.geometry.align_vectors([0.0, 0.0, 1.0], (b - a) / length)[:3, :3]
-    return vertices @ rotation.T + a, np.asarray(faces, dtype=np.int64)
-
 
 @dataclass
 class Part:
