@@ -125,3 +125,33 @@ TEST(IntersectionCount, TrianglePairs) {
   EXPECT_FALSE(triangles_intersect({kA, kB, kC}, {Vec3(0.2, 0.2, 0.5), Vec3(0.2, 0.2, 1), Vec3(0.3, 0.5, 1)}));
   EXPECT_TRUE(triangles_intersect({kA, kB, kC}, {Vec3(0.2, 0.2, 0), Vec3(1.2, 0.2, 0), Vec3(0.2, 1.2, 0)}));
 }
+
+// The plane early-out of triangles_intersect (three corners strictly on one side of the other
+// triangle's plane) never changes the answer of the six edge/triangle tests: random pairs on a
+// coarse integer lattice (many coplanar corners, shared points and touching edges) and pairs
+// just off each other's planes.
+TEST(IntersectionCount, PlaneEarlyOutAgreesWithTheEdgeTests) {
+  auto edge_tests = [](const std::array<Vec3, 3>& ta, const std::array<Vec3, 3>& tb) {
+    for (int e = 0; e < 3; ++e)
+      if (segment_intersects_triangle(ta[e], ta[(e + 1) % 3], tb[0], tb[1], tb[2]) ||
+          segment_intersects_triangle(tb[e], tb[(e + 1) % 3], ta[0], ta[1], ta[2]))
+        return true;
+    return false;
+  };
+  std::mt19937 rng(7);
+  std::uniform_int_distribution<int> lattice(0, 3);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  int hits = 0;
+  for (int k = 0; k < 20000; ++k) {
+    std::array<Vec3, 3> ta, tb;
+    const bool coarse = k % 2 == 0;
+    for (auto* t : {&ta, &tb})
+      for (Vec3& c : *t)
+        c = coarse ? Vec3(lattice(rng), lattice(rng), lattice(rng)) : Vec3(unit(rng), unit(rng), 1e-9 * unit(rng));
+    const bool expected = edge_tests(ta, tb);
+    ASSERT_EQ(triangles_intersect(ta, tb), expected) << "pair " << k;
+    hits += expected;
+  }
+  EXPECT_GT(hits, 2000);  // both answers are well represented
+  EXPECT_LT(hits, 18000);
+}

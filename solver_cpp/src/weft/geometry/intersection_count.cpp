@@ -57,6 +57,15 @@ bool segment_intersects_triangle(const Vec3& p, const Vec3& q, const Vec3& a, co
 }
 
 bool triangles_intersect(const std::array<Vec3, 3>& ta, const std::array<Vec3, 3>& tb) {
+  // A triangle whose corners all lie strictly on one side of the other's plane meets nothing
+  // of it (exact signs): three predicates decide most separated pairs, where the edge tests
+  // below take twelve (each edge's two ends against the other plane).
+  auto off_plane = [](const std::array<Vec3, 3>& plane, const std::array<Vec3, 3>& t) {
+    const int s0 = orient3d(plane[0], plane[1], plane[2], t[0]);
+    if (s0 == 0) return false;
+    return orient3d(plane[0], plane[1], plane[2], t[1]) == s0 && orient3d(plane[0], plane[1], plane[2], t[2]) == s0;
+  };
+  if (off_plane(ta, tb) || off_plane(tb, ta)) return false;
   for (int e = 0; e < 3; ++e) {
     if (segment_intersects_triangle(ta[e], ta[(e + 1) % 3], tb[0], tb[1], tb[2])) return true;
     if (segment_intersects_triangle(tb[e], tb[(e + 1) % 3], ta[0], ta[1], ta[2])) return true;
