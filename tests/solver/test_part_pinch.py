@@ -20,12 +20,14 @@ from tests.helpers import convex_depth, make_scene
 SWEEP, AFTER = 36, 6  # part_sweep_shot defaults
 
 
-def run_sweep(tmp_path, part_pinch: bool = True, threads: int = 2, substeps: int = 4) -> list[dict]:
+def run_sweep(tmp_path, part_pinch: bool = True, threads: int = 2, substeps: int = 4,
+              local_aside: bool = True) -> list[dict]:
     scene = make_scene(part_sweep_shot(tmp_path, substeps=substeps), tmp_path)
     switches = collision_switches(scene)
     assert switches["gia"] == -1 and len(set(switches["body_group"])) == 1  # one character, GIA auto
     setup = build_setup(scene, threads)
     setup.collision.part_pinch = part_pinch
+    setup.collision.local_aside = local_aside
     rows = []
     for index, sim, t in simulate(scene, _solver.Simulation(setup)):
         x = sim.positions
@@ -33,6 +35,7 @@ def run_sweep(tmp_path, part_pinch: bool = True, threads: int = 2, substeps: int
             "frame": index, "parts": t.gia_pinched_part_pairs, "bodies": t.gia_pinched_body_pairs,
             "intersections": t.intersections, "zones": t.impact_zones, "unresolved": t.unresolved_collisions,
             "substeps": t.substeps, "strain": t.max_edge_strain, "lowest": float(x[:, 1].min()),
+            "constraints": t.contact_constraints,
             "inside": [int((convex_depth(x, body.frames[index], body.faces) < 0).sum()) for body in scene.bodies],
             "positions": np.array(x),
         })
@@ -71,6 +74,17 @@ def test_without_part_pinches_the_fail_safe_fights(tmp_path):
     t = trace(rows)
     assert all(r["parts"] == 0 for r in rows), t
     assert sum(r["zones"] for r in rows) > 0 and max(r["substeps"] for r in rows) > 4, t
+
+
+def test_contacts_stay_on_away_from_an_engaged_part_pinch(tmp_path):
+    # With the pinch engaged, the cloth outside its region keeps its contact constraints; set
+    # aside everywhere (local_aside off, as for a body/body pinch) none act in those frames.
+    local = run_sweep(tmp_path / "local")
+    everywhere = run_sweep(tmp_path / "everywhere", local_aside=False)
+    for rows, held in ((local, True), (everywhere, False)):
+        engaged = [r for r in rows if r["parts"] > 0][1:]  # the first engaged frame starts clean
+        assert engaged, trace(rows)
+        assert (sum(r["constraints"] for r in engaged) > 0) == held, trace(rows)
 
 
 def test_part_pinches_give_the_same_result_on_any_thread_count(tmp_path):
