@@ -73,6 +73,10 @@ class CollisionSystem::Filter : public ContactFilter {
     return s_.gia_bodies_ && s_.gia_bodies_->cloth_face_contour(f, body);
   }
   bool pinched_face(int f, int body) const override { return s_.pinch_ && s_.pinch_->face_in_region(f, body); }
+  bool contour_corner(int p, int body) const override {
+    return s_.gia_bodies_ && s_.gia_bodies_->contour_corner(p, body);
+  }
+  bool pinch_region(int body) const override { return s_.pinch_ && !s_.pinch_->no_region(body); }
   bool skips_nothing(int body) const override {
     if (body < 0) return !s_.untangle_.any();
     return (!s_.gia_bodies_ || s_.gia_bodies_->clean(body)) && (!s_.pinch_ || s_.pinch_->no_region(body));

@@ -283,10 +283,16 @@ void ContactDetection::expand_triangle_pair(int cf, int of, int body, const Cont
       (body_colour >= 1 && filter.cloth_face_contour(cf, body) && (body_colour == 2 || !in_pinch)))
     return;
   compute_boxes(b.faces);
-  // GIA one-way membrane: features with a cloth vertex coloured inside this body are skipped.
+  // GIA one-way membrane: features with a cloth vertex coloured inside this body are skipped;
+  // so are, against a coloured or pierced body face, the corners of the cloth faces on the
+  // contour (and edges between two), whichever face owns them: a contour triangle's corner
+  // owned by a face off the contour would otherwise hold its triangle at the body. Not in a
+  // body with a pinch region (its squeezed cloth is on the contour of both bodies there).
+  const bool open_face = body_colour >= 1 && !in_pinch && !filter.pinch_region(body);
   auto coloured = [&](int p) { return !plain && filter.coloured(p, body); };
+  auto passes = [&](int p) { return open_face && filter.contour_corner(p, body); };
   for (int v : cloth_own_.face_vertices[cf])
-    if (!coloured(v) && cloth_point_near(v))
+    if (!coloured(v) && !passes(v) && cloth_point_near(v))
       out.push_back({{v, bv(b.faces(of, 0)), bv(b.faces(of, 1)), bv(b.faces(of, 2))}, body, false});
   const bool face_coloured =
       coloured(cloth_faces_(cf, 0)) || coloured(cloth_faces_(cf, 1)) || coloured(cloth_faces_(cf, 2));
@@ -295,7 +301,7 @@ void ContactDetection::expand_triangle_pair(int cf, int of, int body, const Cont
       if (other_point_near(k))
         out.push_back({{bv(k), cloth_faces_(cf, 0), cloth_faces_(cf, 1), cloth_faces_(cf, 2)}, body, false});
   for (const auto& e1 : cloth_own_.face_edges[cf])
-    if (!coloured(e1[0]) && !coloured(e1[1]))
+    if (!coloured(e1[0]) && !coloured(e1[1]) && !(passes(e1[0]) && passes(e1[1])))
       for (const auto& e2 : b.own.face_edges[of])
         if (edges_near(e1, e2)) out.push_back({{e1[0], e1[1], bv(e2[0]), bv(e2[1])}, body, true});
 }

@@ -20,6 +20,10 @@ class ContactFilter {
   virtual bool cloth_face_contour(int /*cloth_face*/, int /*body*/) const { return false; }
   // Cloth face in a body/body pinch region of `body` (its pairs with the body get no CCD).
   virtual bool pinched_face(int /*cloth_face*/, int /*body*/) const { return false; }
+  // Cloth vertex p is a corner of a cloth face on the contour with `body` (cloth_face_contour).
+  virtual bool contour_corner(int /*p*/, int /*body*/) const { return false; }
+  // Some cloth face is in a pinch region of `body`.
+  virtual bool pinch_region(int /*body*/) const { return false; }
   // True when every query about pairs with `body` (cloth/cloth pairs: body < 0) would give
   // the default answer above: the expansion then asks none of them (one call per triangle pair
   // instead of one per feature). False here, so that a filter overriding the queries alone is

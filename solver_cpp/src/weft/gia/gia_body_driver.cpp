@@ -92,8 +92,13 @@ bool GiaBodyDriver::colour(const CollisionStep& step, int threads, CollisionTele
       body_faces += state.face_coloured[f] != 0;
     }
     state.cloth_face_contour.assign(cloth_faces.rows(), 0);
-    for (size_t k = 0; k < collide_face_ids_.size(); ++k)
-      state.cloth_face_contour[collide_face_ids_[k]] = cloth.face_colour[k] == kGiaContour;
+    state.contour_corner.assign(vertex_count_, 0);
+    for (size_t k = 0; k < collide_face_ids_.size(); ++k) {
+      const bool contour = cloth.face_colour[k] == kGiaContour;
+      state.cloth_face_contour[collide_face_ids_[k]] = contour;
+      if (contour)
+        for (int c = 0; c < 3; ++c) state.contour_corner[cloth_faces(collide_face_ids_[k], c)] = 1;
+    }
     for (int i = 0; i < vertex_count_; ++i)
       if (state.inside[i] && vertex_collide_[i]) ++coloured_count;
   }

@@ -37,6 +37,9 @@ class GiaBodyDriver {
   bool cloth_face_contour(int f, int body) const {
     return !bodies_[body].cloth_face_contour.empty() && bodies_[body].cloth_face_contour[f];
   }
+  bool contour_corner(int p, int body) const {
+    return !bodies_[body].contour_corner.empty() && bodies_[body].contour_corner[p];
+  }
   // Nothing coloured against `body`: the three queries above give their defaults.
   bool clean(int body) const {
     const Body& b = bodies_[body];
@@ -52,7 +55,9 @@ class GiaBodyDriver {
     // cloth), 2 some vertex in it, 1 none but pierced by the cloth, 0 free
     std::vector<char> face_coloured;
     std::vector<char> cloth_face_contour;  // per cloth face: it and the body pierce each other
+    std::vector<char> contour_corner;      // per cloth vertex: a corner of such a face
     void clear() {
+      contour_corner.clear();
       inside.clear();
       face_coloured.clear();
       cloth_face_contour.clear();
