@@ -48,6 +48,14 @@ GiaBodyDriver::GiaBodyDriver(const ContactDetection& detection, int vertex_count
   }
 }
 
+void GiaBodyDriver::fit_tree(AabbTree& tree, std::vector<Aabb>& boxes, const Positions& x, const Faces& faces) {
+  triangle_boxes(faces, x, x, {}, boxes);
+  if (tree.empty())
+    tree.build(boxes);
+  else
+    tree.refit(boxes);
+}
+
 void GiaBodyDriver::clear() {
   for (Body& body : bodies_) body.clear();
 }
@@ -61,7 +69,8 @@ bool GiaBodyDriver::colour(const CollisionStep& step, int threads, CollisionTele
   // The cloth's tree once for every body; a body whose box misses every cloth vertex and face
   // has nothing in intersection with the cloth (no vertex inside, no triangle through).
   const Positions& x = *step.x;
-  const AabbTree cloth_tree = gia_triangle_tree(x, collide_faces_);
+  fit_tree(cloth_tree_, cloth_boxes_, x, collide_faces_);
+  const AabbTree& cloth_tree = cloth_tree_;
   Aabb cloth_box;
   for (Eigen::Index i = 0; i < x.rows(); ++i) cloth_box.expand(row3(x, static_cast<int>(i)));
   for (size_t b = 0; b < bodies_.size(); ++b) {
@@ -70,7 +79,8 @@ bool GiaBodyDriver::colour(const CollisionStep& step, int threads, CollisionTele
     if (!state.closed) continue;
     const Faces& faces = detection_.bodies()[b].faces;
     const Positions& body_x = step.body_start[b];
-    const AabbTree body_tree = gia_triangle_tree(body_x, faces);
+    fit_tree(state.tree, state.boxes, body_x, faces);
+    const AabbTree& body_tree = state.tree;
     if (body_tree.empty() || !body_tree.bounds().overlaps(cloth_box)) continue;
     // Cloth side: the exact inside test (ray parity). Body side: the parity colouring of the
     // body over all separating paths, so a body segment that passes wholly through the cloth

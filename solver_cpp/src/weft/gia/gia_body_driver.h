@@ -49,6 +49,8 @@ class GiaBodyDriver {
  private:
   struct Body {
     GiaTopology topology;            // of the body's mesh (fixed), built once
+    AabbTree tree;                   // over its faces: built at the first colouring, refitted after
+    std::vector<Aabb> boxes;
     bool closed = false;             // collidable and watertight: analysed
     std::vector<char> inside;        // per cloth vertex: inside the body (coloured)
     // per body face: 3 all vertices in the body's coloured region (in intersection with the
@@ -67,6 +69,11 @@ class GiaBodyDriver {
   int vertex_count_;
   std::vector<Body> bodies_;
   GiaTopology cloth_topology_;  // of collide_faces_, built once
+  AabbTree cloth_tree_;         // over collide_faces_: built at the first colouring, refitted after
+  std::vector<Aabb> cloth_boxes_;
+  // Boxes of `faces` at x into `boxes`, and the tree over them: built when empty, else refitted
+  // (the topology is fixed; the contact detection's trees live the same way).
+  static void fit_tree(AabbTree& tree, std::vector<Aabb>& boxes, const Positions& x, const Faces& faces);
   std::vector<std::vector<int>> cloth_neighbours_;  // contour test
   std::vector<char> vertex_collide_;                // on some body-colliding face
   Faces collide_faces_;                             // the cloth faces that collide with bodies
