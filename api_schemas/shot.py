@@ -193,8 +193,10 @@ class Body(StrictModel):
         default=None,
         description=(
             "Articulated character this body is a part of. Parts of one character may overlap at "
-            "their joints: cloth stays outside all of them and a pair of parts is never a pinch. "
-            "Unset: bodies that intersect each other at the first frame are joined automatically."
+            "their joints: cloth stays outside all of them and their overlap is never a pinch; where "
+            "two parts' surfaces close on cloth (nearer than two cloth thicknesses, an arm along the "
+            "torso) the cloth there is squeezed as in a pinch. Unset: bodies that intersect each "
+            "other at the first frame are joined automatically."
         ),
     )
 
