@@ -21,7 +21,7 @@ class PinchDriver {
               const PinchTracking& tracking = {});
 
   // At the step's start (step.x, step.x_end and the bodies' positions set). Refits the
-  // detection's cloth tree over the step. unclean: the last step may have left cloth in
+  // detection's cloth tree over the step when a pair is not free or unclean. unclean: the last step may have left cloth in
   // intersection (GIA due); only then, or while a pair is engaged, can a cloth face be through
   // a body, and only then is that looked for.
   void update(CollisionStep& step, ContactDetection& detection, double default_thickness, bool unclean,
@@ -32,7 +32,7 @@ class PinchDriver {
   }
   // No pinch region of `body`: face_in_region is false for every face.
   bool no_region(int body) const { return faces_.empty() || faces_[body].empty(); }
-  // Cloth vertex in a non-free pair's region with `body`.
+  // Cloth vertex in the region of an engaged pair of bodies (not parts) with `body`.
   bool held(int p, int body) const { return !held_.empty() && !held_[body].empty() && held_[body][p]; }
   // Cloth vertex p in an engaged region of a pair of parts in which `body` gives way: GIA
   // recovery does not push it out of `body` (the part passes over the squeezed cloth).
@@ -50,8 +50,6 @@ class PinchDriver {
   int engaged_pairs() const { return engaged_count_; }
   // Of those, the pairs of parts of one character.
   int engaged_part_pairs() const { return engaged_parts_; }
-  // Per tracker pair, after the last update: engaged.
-  const std::vector<char>& engaged() const { return engaged_; }
 
  private:
   BodyPinchTracker tracker_;
