@@ -179,6 +179,7 @@ void CollisionSystem::mark_aside() {
   const Faces& faces = detection_.cloth_faces();
   aside_.assign(step_.x->rows(), 0);
   for (int b : detection_.colliding()) {
+    if (pinch_->no_region(b) && (!gia_bodies_ || gia_bodies_->clean(b))) continue;  // nothing to set aside
     for (int f = 0; f < faces.rows(); ++f) {
       const bool pinched = pinch_->face_in_region(f, b);
       bool coloured = false;
