@@ -84,3 +84,20 @@ def test_repeated_blocks_give_one_speedup_each() -> None:
     assert min(runs) <= multigrid["extra"]["solve_speedup_over_block_jacobi"] <= max(runs)
     text = format_tables(result)
     assert f"(median {sum(runs) / 2:.2f}, {min(runs):.2f}-{max(runs):.2f})" in text
+
+
+def test_scaled_reference_steps_leave_the_fast_paths_whole_frames() -> None:
+    """The largest size times the reference path by single steps scaled to a frame, and the fast
+    paths by whole frames: timed as frames of one step each, multigrid would recompute its
+    whole hierarchy at every step (a refresh per frame), which no 4-step frame does."""
+    from bench.solver_bench import SUBSTEPS, Size, measure_size, sheet_document
+    from weft.shot import parse_shot
+    from weft.solver_setup import resolve_scene
+
+    scene = resolve_scene(parse_shot(sheet_document(32)), Path.cwd())
+    (fast, multigrid), reference, _ = measure_size(scene, Size("sheet-1k", 32, 1, reference_steps=1), threads=1)
+    assert (fast.measured, multigrid.measured) == ("1 frame", "1 frame")
+    assert reference.measured == f"1 of {SUBSTEPS} steps, scaled"
+    assert multigrid.extra["multigrid_refreshes_per_step"] == 1.0 / SUBSTEPS
+    # The scaled step stands for a frame: per-frame figures of the same order as the fast paths'.
+    assert reference.cg_iterations_per_step > 0 and reference.solve_s_per_frame > 0.0
