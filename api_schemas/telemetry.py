@@ -80,6 +80,13 @@ class FrameTelemetry(BaseModel):
     # The preconditioner's share of the solve (issue 13); appended like the columns above.
     setup_seconds: float = Field(
         0.0, description="of solve_seconds: the preconditioner's setup (multigrid hierarchy values), summed over substeps")
+    # What single collision features cost per frame (issue 12); parts of the sums above, appended.
+    self_collision_seconds: float = Field(
+        0.0, description="of collision_broad_phase_seconds: self-collision's culling, traversal and cloth/cloth pair "
+                         "expansion, summed over passes and substeps")
+    contact_constraints_seconds: float = Field(
+        0.0, description="of collision_proximity_seconds: finding the cloth/body contacts the solve constrains "
+                         "(nearest body faces, cloth edges across sharp body edges), summed over substeps")
 
 
 _DTYPES = {int: "i4", float: "f8"}

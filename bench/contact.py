@@ -114,7 +114,7 @@ def weft_breakdown(telemetry: list[Any]) -> dict[str, Any]:
     out = {f"{name}_per_frame": float(column(name).mean()) for name in (
         "build_seconds", "solve_seconds", "setup_seconds", "collision_seconds", "gia_seconds", "total_seconds",
         "collision_broad_phase_seconds", "collision_proximity_seconds", "collision_ccd_seconds",
-        "collision_response_seconds",
+        "collision_response_seconds", "self_collision_seconds", "contact_constraints_seconds",
         "ccd_candidates",
         "broad_phase_pairs", "proximity_pairs", "contact_constraints", "released_contacts", "impact_zones")}
     out["collision_share"] = float(column("collision_seconds").sum() / max(column("total_seconds").sum(), 1e-300))
@@ -284,7 +284,8 @@ def format_tables(rows: list[dict[str, Any]]) -> list[Any]:
             _fmt(r["max_speed_m_s"], ".2f"), "yes" if r["nan"] else "no", note,
         )
     steps = Table(title="weft step breakdown (per simulated frame; CG iterations per substep)")
-    for column in ("scene", "build s", "solve s", "of which setup s", "collision s", "collision share", "gia s",
+    for column in ("scene", "build s", "solve s", "of which setup s", "collision s", "of which self s",
+                   "of which contacts s", "collision share", "gia s",
                    "CG it/substep", "CCD cand/frame", "contacts in solve/frame", "prox pairs/frame", "impact zones", "unresolved",
                    "unconverged"):
         steps.add_column(column, justify="left" if column == "scene" else "right")
@@ -295,7 +296,9 @@ def format_tables(rows: list[dict[str, Any]]) -> list[Any]:
         label = r["scene"] if r["solver"] == "weft" else f"{r['scene']} ({r['solver']})"
         steps.add_row(
             label, *(f"{t[k]:.3f}" for k in ("build_seconds_per_frame", "solve_seconds_per_frame",
-                                             "setup_seconds_per_frame", "collision_seconds_per_frame")),
+                                             "setup_seconds_per_frame", "collision_seconds_per_frame",
+                                             "self_collision_seconds_per_frame",
+                                             "contact_constraints_seconds_per_frame")),
             f"{t['collision_share']:.0%}", f"{t['gia_seconds_per_frame']:.3f}",
             f"{t['cg_iterations_per_substep']:.0f}", f"{t['ccd_candidates_per_frame']:.0f}",
             f"{t['contact_constraints_per_frame']:.0f}", f"{t['proximity_pairs_per_frame']:.0f}",

@@ -370,6 +370,13 @@ def describe_cache(path: str | Path) -> dict[str, Any]:
                      for key in ("broad_phase", "proximity", "ccd", "response") if f"collision_{key}_seconds" in names}
             if parts and collides:
                 summary["mean_collision_seconds_per_frame"] = parts
+            # Per feature (parts of the stages above, and GIA's own column): what a shot pays for
+            # self-collision, for contact in the solve and for intersection analysis.
+            features = {key: float(np.mean(simulated[column])) for key, column in (
+                ("self_collision", "self_collision_seconds"), ("contact_constraints", "contact_constraints_seconds"),
+                ("gia", "gia_seconds")) if column in names}
+            if len(features) == 3 and collides:
+                summary["mean_feature_seconds_per_frame"] = features
             counts = {key: float(np.mean(simulated[key])) for key in (
                 "broad_phase_pairs", "ccd_candidates", "ccd_hits", "contact_constraints", "proximity_pairs",
                 "impact_zones") if key in names}

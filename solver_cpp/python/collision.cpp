@@ -128,6 +128,10 @@ void bind_collision(py::module_& m) {
                              [](const FrameTelemetry& t) { return t.collision.response_seconds; })
       .def_property_readonly("intersection_seconds",
                              [](const FrameTelemetry& t) { return t.collision.intersection_seconds; })
+      .def_property_readonly("self_collision_seconds",
+                             [](const FrameTelemetry& t) { return t.collision.self_collision_seconds; })
+      .def_property_readonly("contact_constraints_seconds",
+                             [](const FrameTelemetry& t) { return t.collision.contact_constraints_seconds; })
       .def_property_readonly("broad_phase_pairs", [](const FrameTelemetry& t) { return t.collision.broad_phase_pairs; })
       .def_property_readonly("proximity_pairs", [](const FrameTelemetry& t) { return t.collision.proximity_pairs; })
       .def_property_readonly("contact_constraints",

@@ -138,6 +138,33 @@ def test_collision_telemetry_reaches_the_cache(tmp_path):
     assert np.all(parts <= simulated["collision_seconds"] + 1e-12)
 
 
+@pytest.mark.parametrize("self_collision", [True, False])
+def test_feature_costs_are_parts_of_their_stages(tmp_path, self_collision):
+    """A sheet folding onto itself on a floor: self-collision's broad-phase work and the search
+    for the contacts held in the solve are reported per frame, each within its stage's time;
+    with self-collision off it costs nothing, and `weft info` shows the features' costs."""
+    import h5py
+
+    from weft.cache import describe_cache
+    from weft.runner import ShotRunner
+
+    doc = floor_fold_shot(n=10, frames=10)
+    doc["features"] = {"self_collision": self_collision}
+    summary = ShotRunner(make_scene(doc), tmp_path / "fold.h5", threads=2).run()
+    assert summary.status == "complete"
+    with h5py.File(tmp_path / "fold.h5", "r") as f:
+        t = f["telemetry"][()]
+    t = t[t["substeps"] > 0]
+    assert np.all(t["self_collision_seconds"] <= t["collision_broad_phase_seconds"])
+    assert np.all(t["contact_constraints_seconds"] <= t["collision_proximity_seconds"])
+    assert (t["self_collision_seconds"].sum() > 0.0) == self_collision
+    # The sheet lands on the floor: contacts are held in the solve from then on.
+    assert t["contact_constraints"][-1] > 0 and t["contact_constraints_seconds"][-1] > 0.0
+    features = describe_cache(tmp_path / "fold.h5")["mean_feature_seconds_per_frame"]
+    assert set(features) == {"self_collision", "contact_constraints", "gia"}
+    assert features["self_collision"] == pytest.approx(float(np.mean(t["self_collision_seconds"])))
+
+
 def test_ccd_single_and_batch_agree():
     rng = np.random.default_rng(3)
     start = rng.normal(size=(200, 4, 3))

@@ -14,6 +14,8 @@ void CollisionTelemetry::add(const CollisionTelemetry& o) {
   ccd_seconds += o.ccd_seconds;
   response_seconds += o.response_seconds;
   intersection_seconds += o.intersection_seconds;
+  self_collision_seconds += o.self_collision_seconds;
+  contact_constraints_seconds += o.contact_constraints_seconds;
   gia_seconds += o.gia_seconds;
   gia_coloured_vertices = std::max(gia_coloured_vertices, o.gia_coloured_vertices);
   gia_pushed_vertices += o.gia_pushed_vertices;

@@ -59,6 +59,9 @@ struct CollisionTelemetry {
   double ccd_seconds = 0.0;
   double response_seconds = 0.0;
   double intersection_seconds = 0.0;  // counting at frame end
+  // What single features cost, parts of the sums above (so not in total_seconds again):
+  double self_collision_seconds = 0.0;       // of broad_phase: cloth/cloth culling, traversal, expansion
+  double contact_constraints_seconds = 0.0;  // of proximity: finding the contacts the solve constrains
   int broad_phase_pairs = 0;  // feature pairs the broad phase produced (proximity and CCD lists)
   int proximity_pairs = 0;
   int contact_constraints = 0;  // cloth/body contacts constrained in the solve, summed over substeps

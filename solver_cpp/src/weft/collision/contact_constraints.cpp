@@ -147,7 +147,9 @@ void ContactConstraints::constrain(const Positions& x, const Positions& v, doubl
   }
   looked_ = true;
   frame.contact_constraints += static_cast<int>(contacts_.size());
-  frame.proximity_seconds += timer.seconds();
+  const double seconds = timer.seconds();
+  frame.proximity_seconds += seconds;
+  frame.contact_constraints_seconds += seconds;
 }
 
 // Cloth edges across a body edge (a coarse sheet hooked on a thin limb, a strap over a box

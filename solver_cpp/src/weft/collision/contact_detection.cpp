@@ -321,6 +321,7 @@ void ContactDetection::collect(CollisionStep& step, const ContactFilter& filter,
   std::vector<FeaturePair>& pairs = swept ? step.pairs : step.proximity_pairs;
   pairs.clear();
   if (any_self_) {
+    const Timer self_timer;
     scratch_pairs_.clear();
     const Vec3* shift = swept && self_shift_ != Vec3::Zero() ? &self_shift_ : nullptr;
     const std::vector<char>* culled = nullptr;
@@ -344,6 +345,7 @@ void ContactDetection::collect(CollisionStep& step, const ContactFilter& filter,
                      const Sweep sweep{&x, &end, &x, &end, gap, swept ? nullptr : &sides, shift};
                      expand_triangle_pair(a, b, -1, filter, out, &sweep);
                    });
+    frame.self_collision_seconds += self_timer.seconds();
   }
   // Every body's candidates first (each traversal in parallel), then one parallel pass over all
   // of them, body after body: the list is the bodies' lists concatenated, as one pass per body
@@ -448,6 +450,7 @@ void ContactDetection::collect_changed(CollisionStep& step, const ContactFilter&
   }
   const auto changed_count = static_cast<std::int64_t>(changed_faces_.size());
   if (any_self_ && changed_count > 0) {
+    const Timer self_timer;
     leaf_culled_top_.clear();
     if (self_culling_) {
       if (incremental)
@@ -478,6 +481,7 @@ void ContactDetection::collect_changed(CollisionStep& step, const ContactFilter&
       else
         cloth_tree_.query(cloth_boxes_[a], expand);
     });
+    frame.self_collision_seconds += self_timer.seconds();
   }
   if (changed_count > 0 && any_body_) {
     body_plain_.assign(bodies_.size(), 1);
