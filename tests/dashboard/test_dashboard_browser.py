@@ -69,7 +69,9 @@ def test_job_page_follows_a_running_shot_and_shows_its_telemetry(
     assert abs(shown_cg - np.mean([r["cg_iterations"] for r in simulated])) <= 0.05
     assert page.locator("#job-state").inner_text() == "succeeded"
     assert "self-collision" in page.locator("#costs").inner_text()
-    assert page.locator("#costs table.costs tbody tr").count() == 11
+    assert page.locator("#costs table.costs tbody tr").count() == 13
+    rows_shown = page.locator("#costs table.costs tbody th").all_inner_texts()
+    assert "of which self-collision" in rows_shown and "of which contacts in the solve" in rows_shown
 
     # Frames published after the page opened were drawn within a second.
     published = page.evaluate("() => weftDashboard.publishedAt")
