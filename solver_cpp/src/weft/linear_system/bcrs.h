@@ -113,10 +113,27 @@ class BcrsMatrix {
     static_assert(std::is_same_v<Scalar, float>, "multiply_rows reads x through its float32 copy");
     if (!transient_rows_.empty()) throw std::logic_error("multiply_rows: the matrix has transient blocks");
     round_x(x, threads);
+    multiply_rows_rounded(x_float_.data(), threads, epilogue);
+  }
+  // multiply_rows of an x the caller rounded to float32 itself, 4 lanes per row (x0, x1, x2, 0;
+  // store_rounded), typically in the pass that computed it: the same bits as multiply_rows of
+  // that x, one pass over the vector less. xf must not be written while the product runs.
+  template <class Epilogue>
+  void multiply_rows_rounded(const float* xf, int threads, Epilogue&& epilogue) const {
+    static_assert(std::is_same_v<Scalar, float>, "multiply_rows_rounded reads a float32 x");
+    if (!transient_rows_.empty()) throw std::logic_error("multiply_rows: the matrix has transient blocks");
     if (narrow_)
-      rows_with(offsets16_.data(), threads, epilogue);
+      rows_with(offsets16_.data(), xf, threads, epilogue);
     else
-      rows_with(columns32_.data(), threads, epilogue);
+      rows_with(columns32_.data(), xf, threads, epilogue);
+  }
+  // Row r of an x rounded for multiply_rows_rounded, into xf (4 floats per row), as round_x does.
+  static inline void store_rounded(float* xf, int r, double x0, double x1, double x2) {
+    float* out = xf + 4 * static_cast<size_t>(r);
+    out[0] = static_cast<float>(x0);
+    out[1] = static_cast<float>(x1);
+    out[2] = static_cast<float>(x2);
+    out[3] = 0.0f;
   }
   struct TransientEntry {
     int row, col;
@@ -182,11 +199,11 @@ class BcrsMatrix {
   // join the row's sum ((b0 + b1) + (b2 + b3)), so the row's dependency chain is one add per
   // four blocks instead of three per block; the order is fixed per row (any thread count).
   template <class Index>
-  inline void fixed_row(const Index* idx, int r, const double* x, double& y0, double& y1, double& y2) const {
+  inline void fixed_row(const Index* idx, int r, const double* x, const float* xf, double& y0, double& y1,
+                        double& y2) const {
     int k = row_start_[r];
     const Scalar* a = values_.data() + 9 * static_cast<size_t>(k);
     if constexpr (std::is_same_v<Scalar, float>) {
-      const float* xf = x_float_.data();
       __m128 y = _mm_setzero_ps();
       for (int q = quads_[r]; q > 0; --q, k += 4, a += 36) {
         const __m128 b01 = _mm_add_ps(block_product4(a, xf + 4 * column_of(idx, k, r)),
@@ -225,7 +242,7 @@ class BcrsMatrix {
   template <bool WithTransient, class Index>
   inline void row_product(const Index* idx, int r, const double* x, double* y) const {
     double y0 = 0.0, y1 = 0.0, y2 = 0.0;
-    fixed_row(idx, r, x, y0, y1, y2);
+    fixed_row(idx, r, x, x_float_.data(), y0, y1, y2);
     if constexpr (WithTransient) {
       const int s = transient_slot_[r];
       if (s >= 0)
@@ -274,11 +291,11 @@ class BcrsMatrix {
     }
   }
   template <class Index, class Epilogue>
-  void rows_with(const Index* idx, int threads, Epilogue& epilogue) const {
+  void rows_with(const Index* idx, const float* xf, int threads, Epilogue& epilogue) const {
 #pragma omp parallel for schedule(static) num_threads(threads)
     for (int r = 0; r < rows_; ++r) {
       double y0 = 0.0, y1 = 0.0, y2 = 0.0;
-      fixed_row(idx, r, nullptr, y0, y1, y2);
+      fixed_row(idx, r, nullptr, xf, y0, y1, y2);
       epilogue(r, y0, y1, y2);
     }
   }

@@ -12,14 +12,6 @@ namespace weft {
 
 namespace {
 
-// Levels below this many rows run on one thread (the parallel regions cost more than the rows).
-// 256, not 2048: a 4k-vertex garment's first coarse level (about 500 rows, a quarter of the
-// fine level's blocks) ran serially while the other thread waited, and split it took 8% off
-// the solve (`python -m bench.contact`, drape and dress, module against module).
-constexpr int kParallelLevelRows = 256;
-
-int level_threads(int rows, int threads) { return rows >= kParallelLevelRows ? threads : 1; }
-
 // A coarsest level this large would make the per-solve dense Cholesky the whole cost.
 constexpr int kMaxCoarsestRows = 2000;
 
@@ -185,7 +177,7 @@ double SmoothedAggregation::estimate_spectral_radius(const Level& level, int thr
 }
 
 template <class T>
-void BlockRowsOf<T>::multiply(const VectorX& x, VectorX& y, int threads, bool accumulate) const {
+void BlockRowsOf<T>::multiply(const VectorX& x, VectorX& y, int threads, bool accumulate, float* rounded) const {
   if (!accumulate) y.resize(3 * static_cast<Eigen::Index>(rows));
 #pragma omp parallel for schedule(static) num_threads(threads) if (threads > 1)
   for (int i = 0; i < rows; ++i) {
@@ -196,6 +188,7 @@ void BlockRowsOf<T>::multiply(const VectorX& x, VectorX& y, int threads, bool ac
       y.segment<3>(3 * i) += s;
     else
       y.segment<3>(3 * i) = s;
+    if (rounded) BcrsMatrix<float>::store_rounded(rounded, i, y[3 * i], y[3 * i + 1], y[3 * i + 2]);
   }
 }
 template struct BlockRowsOf<float>;
@@ -527,74 +520,6 @@ void SmoothedAggregation::update_level_values(int l, int threads, bool keep_boun
     d = (d.cast<double>() + Mat3::Identity() - level.kept[J]).cast<float>();
   }
   symmetrize(next.a, next.transpose, thc);
-}
-
-void SmoothedAggregation::smooth(const Level& level, const VectorX& f, VectorX& x, bool zero_start, int threads) const {
-  // Chebyshev iteration for D^-1 A on [lower, upper] (Saad, Iterative Methods, alg. 12.1). Each
-  // product is fused with the update that consumes it (BcrsMatrix::multiply_rows): rr, d and x
-  // are rewritten row by row while the product reads its float32 copy of the multiplied vector.
-  const int n = level.a.rows;
-  const double upper = options_.upper_factor * level.rho, lower = options_.lower_ratio * upper;
-  const double theta = 0.5 * (upper + lower), delta = 0.5 * (upper - lower), sigma = theta / delta;
-  VectorX& rr = level.rr;
-  VectorX& d = level.d;
-  // First step: rr = D^-1 (f - A x), d = rr / theta, x += d (x = d from a zero start).
-  auto first = [&](int i, const Vec3& ax) {
-    const Vec3 ri = level.inverse_diagonal[i] * Vec3(f.segment<3>(3 * i) - ax);
-    rr.segment<3>(3 * i) = ri;
-    const Vec3 di = ri / theta;
-    d.segment<3>(3 * i) = di;
-    if (zero_start)
-      x.segment<3>(3 * i) = di;
-    else
-      x.segment<3>(3 * i) += di;
-  };
-  if (zero_start) {
-#pragma omp parallel for schedule(static) num_threads(threads) if (threads > 1)
-    for (int i = 0; i < n; ++i) first(i, Vec3::Zero());
-  } else {
-    level.kernel.multiply_rows(x.data(), threads,
-                               [&](int i, double y0, double y1, double y2) { first(i, Vec3(y0, y1, y2)); });
-  }
-  double rho_old = 1.0 / sigma;
-  for (int k = 1; k < options_.smoother_degree; ++k) {
-    const double rho_new = 1.0 / (2.0 * sigma - rho_old);
-    const double c1 = rho_new * rho_old, c2 = 2.0 * rho_new / delta;
-    level.kernel.multiply_rows(d.data(), threads, [&](int i, double y0, double y1, double y2) {
-      const Vec3 ri = rr.segment<3>(3 * i) - level.inverse_diagonal[i] * Vec3(y0, y1, y2);
-      rr.segment<3>(3 * i) = ri;
-      const Vec3 di = c1 * d.segment<3>(3 * i) + c2 * ri;
-      d.segment<3>(3 * i) = di;
-      x.segment<3>(3 * i) += di;
-    });
-    rho_old = rho_new;
-  }
-}
-
-void SmoothedAggregation::cycle(int l, const VectorX& f, VectorX& x, int threads) const {
-  const Level& level = levels_[l];
-  if (l + 1 == levels()) {
-    x = coarse_solver_.solve(f);
-    return;
-  }
-  const int th = level_threads(level.a.rows, threads);
-  const Level& next = levels_[l + 1];
-  smooth(level, f, x, true, th);
-  VectorX& res = level.res;
-  level.kernel.multiply_rows(x.data(), th, [&](int i, double y0, double y1, double y2) {
-    res.segment<3>(3 * i) = f.segment<3>(3 * i) - Vec3(y0, y1, y2);
-  });
-  level.r.multiply(res, next.f, level_threads(next.a.rows, threads));
-  cycle(l + 1, next.f, next.x, threads);
-  level.p.multiply(next.x, x, th, true);  // x += P x_c
-  smooth(level, f, x, false, th);
-}
-
-void SmoothedAggregation::apply(const VectorX& r, VectorX& z, int threads) const {
-  const Level& fine = levels_[0];
-  if (r.size() != 3 * static_cast<Eigen::Index>(fine.a.rows)) throw std::invalid_argument("multigrid: wrong vector size");
-  z.resize(r.size());
-  cycle(0, r, z, threads);
 }
 
 }  // namespace weft

@@ -30,6 +30,7 @@
 #pragma once
 
 #include <Eigen/Cholesky>
+#include <array>
 #include <vector>
 
 #include "weft/common/types.h"
@@ -50,8 +51,9 @@ struct BlockRowsOf {
   std::vector<int> column;
   std::vector<Block> value;
   // y = M x (y += M x with accumulate) in double; rows split over threads, each row summed in
-  // column order.
-  void multiply(const VectorX& x, VectorX& y, int threads, bool accumulate = false) const;
+  // column order. With `rounded`, y is also written there rounded to float32, 4 lanes per row
+  // (BcrsMatrix::store_rounded), for a product that follows.
+  void multiply(const VectorX& x, VectorX& y, int threads, bool accumulate = false, float* rounded = nullptr) const;
 };
 using BlockRows = BlockRowsOf<double>;    // A P (setup only)
 using BlockRowsF = BlockRowsOf<float>;    // level operators, prolongators, restrictions
@@ -124,7 +126,14 @@ class SmoothedAggregation {
     double rho = 1.0;
     mutable VectorX x, f, res, d, t, rr;  // V-cycle work vectors (x, f: coarse levels only; the
                                           // finest level's are the caller's)
+    mutable std::array<std::vector<float>, 2> rounded;  // smooth(): float32 copies, 4 lanes per row
   };
+  // Levels below this many rows run on one thread (the parallel regions cost more than the
+  // rows). 256, not 2048: a 4k-vertex garment's first coarse level (about 500 rows, a quarter of
+  // the fine level's blocks) ran serially while the other thread waited, and split it took 8%
+  // off the solve (`python -m bench.contact`, drape and dress, module against module).
+  static constexpr int kParallelLevelRows = 256;
+  static int level_threads(int rows, int threads) { return rows >= kParallelLevelRows ? threads : 1; }
   bool coarsen_structure(int l, const Graph& strength);
   // Level::weak from the strength graph (cleared when every block is strong).
   static void mark_weak_blocks(Level& level, const Graph& strength);
@@ -136,7 +145,11 @@ class SmoothedAggregation {
   void update_level_values(int l, int threads, bool keep_bounds);
   void finish_level(int l, int threads);  // copies level l's operator values into its kernel
   double estimate_spectral_radius(const Level& level, int threads, int steps) const;
-  void smooth(const Level& level, const VectorX& f, VectorX& x, bool zero_start, int threads) const;
+  // Chebyshev smoothing of x for f (x = 0 first when zero_start). Returns x rounded to float32
+  // for BcrsMatrix::multiply_rows_rounded when round_result (in one of level.rounded), else nullptr.
+  // x_rounded: x already rounded (level.rounded[1]), or nullptr; not read from a zero start.
+  const float* smooth(const Level& level, const VectorX& f, VectorX& x, bool zero_start, const float* x_rounded,
+                      bool round_result, int threads) const;
   // x = V-cycle of level l applied to f (the fine level's f and x are the caller's vectors).
   void cycle(int l, const VectorX& f, VectorX& x, int threads) const;
 
