@@ -282,13 +282,7 @@ class BcrsMatrix {
   void round_x(const double* x, int threads) const {
     x_float_.resize(4 * static_cast<size_t>(rows_));
 #pragma omp parallel for schedule(static) num_threads(threads)
-    for (int r = 0; r < rows_; ++r) {
-      float* xf = x_float_.data() + 4 * static_cast<size_t>(r);
-      xf[0] = static_cast<float>(x[3 * r]);
-      xf[1] = static_cast<float>(x[3 * r + 1]);
-      xf[2] = static_cast<float>(x[3 * r + 2]);
-      xf[3] = 0.0f;
-    }
+    for (int r = 0; r < rows_; ++r) store_rounded(x_float_.data(), r, x[3 * r], x[3 * r + 1], x[3 * r + 2]);
   }
   template <class Index, class Epilogue>
   void rows_with(const Index* idx, const float* xf, int threads, Epilogue& epilogue) const {
