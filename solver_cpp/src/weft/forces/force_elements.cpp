@@ -126,19 +126,32 @@ void compute_force_elements(const ForceModel& model, const ForceElementLayout& l
     double* rhs_out = out.rhs.data() + static_cast<size_t>(e) * 12;
     for (int a = 0; a < count; ++a)
       for (int k = 0; k < 3; ++k) rhs_out[3 * a + k] = rhs[a][k];
+    // The blocks coefficient by coefficient in plain scalars (Eigen's 3x3 temporaries cost store
+    // forwarding stalls here), in the same order of operations as the matrix expressions
+    //   hinge_beta g_a g_b^T + ((a_u[i] a_u[j] H_u + a_v[i] a_v[j] H_v) + shear_beta sg_i sg_j^T)
+    // plus the vertex damping on the diagonal: the same values.
+    double hinge_scaled[4][3] = {}, shear_scaled[3][3] = {};
+    if (hinge.active)
+      for (int a = 0; a < count; ++a)
+        for (int r = 0; r < 3; ++r) hinge_scaled[a][r] = hinge_beta * hinge.g[3 * a + r];
+    if (has_face)
+      for (int i = 0; i < 3; ++i)
+        for (int r = 0; r < 3; ++r) shear_scaled[i][r] = shear_beta * m.shear_gradient[i][r];
     Scalar* blocks = out.blocks.data() + static_cast<size_t>(e) * kElementSlots * 9;
     for (int a = 0; a < count; ++a)
       for (int b = a; b < count; ++b) {
-        Mat3 block = Mat3::Zero();
-        if (hinge.active) block = hinge_beta * hinge.g.segment<3>(3 * a) * hinge.g.segment<3>(3 * b).transpose();
         const int i = corner_of_slot[a], j = corner_of_slot[b];
-        if (i >= 0 && j >= 0)
-          block += m.a_u[i] * m.a_u[j] * big_u + m.a_v[i] * m.a_v[j] * big_v +
-                   shear_beta * m.shear_gradient[i] * m.shear_gradient[j].transpose();
-        if (a == b) block.diagonal().array() += vertex_damping[a];
+        const bool membrane = i >= 0 && j >= 0;
+        const double su = membrane ? m.a_u[i] * m.a_u[j] : 0.0, sv = membrane ? m.a_v[i] * m.a_v[j] : 0.0;
         Scalar* dst = blocks + 9 * element_slot(a, b);
         for (int r = 0; r < 3; ++r)
-          for (int c = 0; c < 3; ++c) dst[3 * r + c] = static_cast<Scalar>(block(r, c));
+          for (int c = 0; c < 3; ++c) {
+            double value = hinge.active ? hinge_scaled[a][r] * hinge.g[3 * b + c] : 0.0;
+            if (membrane)
+              value += (su * big_u(r, c) + sv * big_v(r, c)) + shear_scaled[i][r] * m.shear_gradient[j][c];
+            if (a == b && r == c) value += vertex_damping[a];
+            dst[3 * r + c] = static_cast<Scalar>(value);
+          }
       }
   }
 }
