@@ -75,10 +75,7 @@ class CacheWriter:
             tmp.unlink(missing_ok=True)
             raise
         f.close()
-        os.replace(tmp, path)
-        f = h5py.File(path, "r+", libver="latest")
-        f.swmr_mode = True
-        return cls(f, path)
+        return cls(_publish_for_writing(tmp, path), path)
 
     @staticmethod
     def _write_header(f: h5py.File, scene: Any, weft_version: str, threads: int) -> None:
@@ -155,10 +152,7 @@ class CacheWriter:
                 raise CacheError(f"{path} is not a weft cache")
             if old.attrs["shot_hash"] != shot_hash:
                 raise CacheError(f"{path} was written for a different shot (hash mismatch); refusing to resume")
-        _rewrite_completed(path, "running", "")
-        f = h5py.File(path, "r+", libver="latest")
-        f.swmr_mode = True
-        writer = cls(f, path)
+        writer = cls(_publish_for_writing(_completed_copy(path, "running", ""), path), path)
         return writer, writer.saved_state()
 
     # -- writing --------------------------------------------------------------------------
@@ -268,10 +262,31 @@ def copy_bodies(src: h5py.File, dst: h5py.File, rows: int) -> None:
                 out[k] = motion[k]
 
 
+def _publish_for_writing(tmp: Path, path: Path) -> h5py.File:
+    """`tmp` opened for appending in SWMR mode, then moved to `path` (the open handle follows the
+    file). A reader polling `path` (the API, the dashboard, `weft info`) never sees the file before
+    its writer holds it in SWMR mode: a reader that opened it between a rename and the writer's own
+    open held HDF5's file lock and made that open fail, which ended the run."""
+    f = h5py.File(tmp, "r+", libver="latest")
+    try:
+        f.swmr_mode = True
+        os.replace(tmp, path)
+    except BaseException:
+        f.close()
+        tmp.unlink(missing_ok=True)
+        raise
+    return f
+
+
 def _rewrite_completed(path: Path, status: str, error: str) -> None:
     """Copy the frames up to the saved state (rows past it were never finished) into a fresh file
-    that replaces `path` atomically, with the given status: what a resume and a recovery need,
-    and readable by any HDF5 reader even when the writer died with the file open."""
+    that replaces `path` atomically, with the given status: what a recovery needs, and readable by
+    any HDF5 reader even when the writer died with the file open."""
+    os.replace(_completed_copy(path, status, error), path)
+
+
+def _completed_copy(path: Path, status: str, error: str) -> Path:
+    """The fresh file of `_rewrite_completed` (or of a resume), written beside `path`."""
     with open_cache_reader(path) as old:
         saved = saved_state_group(old)
         state_index = int(old[saved]["frame_index"][0])
@@ -300,7 +315,7 @@ def _rewrite_completed(path: Path, status: str, error: str) -> None:
             new.create_dataset(
                 "telemetry", data=old["telemetry"][:rows], maxshape=(None,), chunks=(64,), dtype=TELEMETRY_DTYPE
             )
-    os.replace(tmp, path)
+    return tmp
 
 
 def recover_cache(path: str | Path) -> dict[str, Any]:

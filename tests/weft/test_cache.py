@@ -143,6 +143,9 @@ def start_run(tmp_path: Path, frames: int = 3000) -> tuple[subprocess.Popen, Pat
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     deadline = time.monotonic() + 120
     while time.monotonic() < deadline:
+        if proc.poll() is not None:
+            _, err = proc.communicate()
+            raise AssertionError(f"the run ended (exit {proc.returncode}) before four frames: {err[-2000:]}")
         try:
             with open_cache_reader(cache) as f:
                 if int(f[saved_state_group(f)]["frame_index"][0]) >= 3:
@@ -151,7 +154,8 @@ def start_run(tmp_path: Path, frames: int = 3000) -> tuple[subprocess.Popen, Pat
             pass
         time.sleep(0.05)
     proc.kill()
-    raise AssertionError("the run wrote no frames")
+    _, err = proc.communicate()
+    raise AssertionError(f"the run wrote no frames in 120 s: {err[-2000:]}")
 
 
 def plain_open_status(cache: Path) -> tuple[str, int]:
@@ -160,6 +164,30 @@ def plain_open_status(cache: Path) -> tuple[str, int]:
 
     with h5py.File(cache, "r") as f:
         return str(f.attrs["status"]), int(f["frames/frame"].shape[0])
+
+
+def test_a_reader_polling_the_cache_does_not_stop_its_writer(tmp_path) -> None:
+    """A reader (the API, the dashboard, `weft info`) that opened the cache between the file's
+    appearance at its path and the writer's own open held HDF5's file lock, and the writer's open
+    failed ('unable to lock file'), ending the run: with a reader polling as fast as it can, every
+    run of the old code failed. The writer now holds the file in SWMR mode before it appears,
+    also when it resumes."""
+    shot = write_shot(tmp_path, frames=6, n=10, substeps=1)
+    cache = tmp_path / "polled.h5"
+    for args in (["--frames", "3"], ["--resume"]):
+        proc = subprocess.Popen([sys.executable, "-m", "weft.cli", "run", str(shot), "-o", str(cache), "--quiet", *args],
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        opened = 0
+        while proc.poll() is None:
+            try:
+                with open_cache_reader(cache):
+                    opened += 1
+            except Exception:  # not there yet, or being replaced
+                pass
+        _, err = proc.communicate()
+        assert proc.returncode == 0, err
+        assert opened > 0
+    assert plain_open_status(cache) == ("complete", 6)
 
 
 def test_sigterm_closes_the_cache_readable_by_plain_h5py_and_resumable(tmp_path) -> None:
