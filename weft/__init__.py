@@ -15,8 +15,11 @@ import os as _os
 
 _os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 # ...after a short spin: with PASSIVE alone libgomp spins 0 times and every barrier is a futex
-# wake-up (tens of microseconds); CG on a 4k-vertex drape then ran slower on 2 threads than on 1.
-# 20,000 spins (some microseconds) let threads that arrive together pass at once and still
-# sleep soon on a busy machine (`python -m bench.contact --scenes drape_sphere`, 2 cores:
-# 0.27 s/frame passive, 0.22 with the spin).
-_os.environ.setdefault("GOMP_SPINCOUNT", "20000")
+# wake-up (tens of microseconds); on 2 threads the 4k-vertex drape and the 10k sheet then ran
+# 2.2-2.3x slower than with a spin. But a spinning thread also holds its core while a process
+# beside weft wants it: with one busy process on a 2-core machine, 20,000 spins (this default
+# until 2026-11-27) made the dress 4x and the drape 6x slower than no spin at all. 1,000 spins
+# cost nothing measurable when the machine is idle and a quarter to a third of 20,000's time
+# when it is not (`python -m bench.omp_wait`, docs/linear-system.md).
+OPENMP_SPIN_COUNT = 1000
+_os.environ.setdefault("GOMP_SPINCOUNT", str(OPENMP_SPIN_COUNT))
