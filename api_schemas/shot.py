@@ -222,8 +222,16 @@ class SolverSettings(StrictModel):
     cg_max_iterations: int = Field(500, ge=1, le=100_000)
     max_substep_halvings: int = Field(
         2, ge=0, le=6,
-        description=("Adaptive substepping: a substep whose collision stage leaves pairs unresolved is redone as two "
-                     "halves, at most this many halvings deep (0: never)."),
+        description=("Adaptive substepping: a substep whose collision stage leaves pairs unresolved (or "
+                     "overstretches an edge, see max_step_strain) is redone as two halves, at most this many "
+                     "halvings deep (0: never)."),
+    )
+    max_step_strain: float = Field(
+        1.75, ge=0.0, le=100.0,
+        description=("A substep that takes an edge from within the strain limit (1.4) to more than this many times "
+                     "its rest length is redone as two halves, unless GIA is recovering or a pinch is engaged (0: "
+                     "never; else above 1). On a limb moving through cloth at metres per second the impulses "
+                     "stretched single edges to 3.7x in one step (docs/collisions.md)."),
     )
     matrix_precision: Literal["float64", "float32"] = Field(
         "float32", description="Value type of the fast path's block matrix (the reference path is always float64)."
@@ -233,6 +241,13 @@ class SolverSettings(StrictModel):
         description="Assembly and solve path: 'fast' (fixed-pattern BCRS, RCM, pre-filtered PCG) or 'reference' "
         "(Eigen sparse matrix, Eigen ConjugateGradient); see docs/linear-system.md.",
     )
+    @field_validator("max_step_strain")
+    @classmethod
+    def _step_strain_off_or_above_one(cls, value: float) -> float:
+        if value != 0.0 and value <= 1.0:
+            raise ValueError("must be 0 (off) or above 1 (a length over the rest length)")
+        return value
+
     preconditioner: Literal["auto", "multigrid", "block_jacobi"] = Field(
         "auto",
         description="CG preconditioner of the fast path: 'multigrid' (smoothed-aggregation algebraic multigrid, "

@@ -394,6 +394,7 @@ def build_setup(scene: Scene, threads: int = 1, linear_system: str | None = None
     solver.cg_tolerance = shot.solver.cg_tolerance
     solver.cg_max_iterations = shot.solver.cg_max_iterations
     solver.max_substep_halvings = shot.solver.max_substep_halvings
+    solver.max_step_strain = shot.solver.max_step_strain
     solver.threads = threads
     solver.linear_system = {"fast": _solver.LinearSystemKind.FAST, "reference": _solver.LinearSystemKind.REFERENCE}[
         linear_system or shot.solver.linear_system

@@ -41,6 +41,7 @@ PYBIND11_MODULE(_solver, m) {
       .def_readwrite("cg_tolerance", &SolverSettings::cg_tolerance)
       .def_readwrite("cg_max_iterations", &SolverSettings::cg_max_iterations)
       .def_readwrite("max_substep_halvings", &SolverSettings::max_substep_halvings)
+      .def_readwrite("max_step_strain", &SolverSettings::max_step_strain)
       .def_readwrite("threads", &SolverSettings::threads)
       .def_readwrite("linear_system", &SolverSettings::linear_system)
       .def_readwrite("matrix_precision", &SolverSettings::matrix_precision)

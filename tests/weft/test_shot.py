@@ -181,6 +181,16 @@ def test_wrong_type(tmp_path) -> None:
     expect(doc, tmp_path, "substeps", "integer")
 
 
+@pytest.mark.parametrize("value, words", [(0.5, "above 1"), (1.0, "above 1"), (-1.0, "greater than or equal"),
+                                          (1e6, "less than or equal")])
+def test_step_strain_bound_is_off_or_a_stretch(tmp_path, value, words) -> None:
+    doc = base_doc()
+    doc["solver"] = {"max_step_strain": value}
+    expect(doc, tmp_path, "solver.max_step_strain", words)
+    doc["solver"] = {"max_step_strain": 0}  # off
+    assert problems(doc, tmp_path) == []
+
+
 def test_backwards_frame_range(tmp_path) -> None:
     doc = base_doc()
     doc["frame_range"] = [10, 2]

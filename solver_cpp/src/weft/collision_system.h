@@ -76,6 +76,8 @@ class CollisionSystem {
   const CollisionSettings& settings() const { return settings_; }
   bool self_collision() const { return detection_.any_self(); }
   bool gia() const { return gia_; }
+  // Whether the next step may start in intersection or in an engaged pinch (GIA is due).
+  bool recovering() const { return gia_due_; }
   const BodyPinchTracker* pinch() const;
 
  private:

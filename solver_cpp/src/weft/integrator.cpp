@@ -31,6 +31,8 @@ Simulation::Simulation(const SimulationSetup& s)
   require_rows(s.face_bend, face_count, "face_bend");
   require_rows(s.face_damping, face_count, "face_damping");
   if (settings_.threads < 1) throw std::invalid_argument("solver.threads must be at least 1");
+  if (!(settings_.max_step_strain == 0.0 || (settings_.max_step_strain > 1.0 && std::isfinite(settings_.max_step_strain))))
+    throw std::invalid_argument("solver.max_step_strain must be 0 (off) or a finite number above 1");
   if (!(settings_.cg_tolerance > 0.0)) throw std::invalid_argument("solver.cg_tolerance must be positive");
   if (settings_.cg_max_iterations < 1) throw std::invalid_argument("solver.cg_max_iterations must be at least 1");
 
@@ -196,11 +198,17 @@ void Simulation::substep(double time, double h, double alpha0, double alpha1, in
   Positions x0, v0;
   VectorX dv0;
   int unresolved_before = 0;
+  // A step is halved for the strain it creates only from a clean start: in a GIA recovery or a
+  // pinch the cloth is pulled or squeezed on purpose. And only for an edge it takes from within
+  // the strain limit to beyond max_step_strain: a stretch that pins or bodies force grows past
+  // the limit over many steps (a sheet twisted by its handles), which half steps would not change.
+  bool watch_strain = false;
   if (can_halve) {
     x0 = x_;
     v0 = v_;
     dv0 = dv_;
     unresolved_before = collisions_->unresolved();
+    watch_strain = settings_.max_step_strain > 0.0 && !collisions_->recovering();
     collisions_->limit_zone_passes(std::max(1, collisions_->settings().zone_iterations / 4));
   }
   step_alpha_start_ = alpha0;
@@ -210,9 +218,15 @@ void Simulation::substep(double time, double h, double alpha0, double alpha1, in
   telemetry.solve_seconds += t.solve;
   telemetry.setup_seconds += t.setup;
   telemetry.cg_iterations += t.iterations;
-  if (can_halve && collisions_->unresolved() > unresolved_before) {
-    // The fail-safe ran out: redo the step as two halves from where it started (the attempt's
-    // cost stays in the timings; its unresolved pairs do not count, the halves' do).
+  const bool unresolved = can_halve && collisions_->unresolved() > unresolved_before;
+  const double strain_limit = collisions_ ? collisions_->settings().max_strain : 0.0;
+  const double start_bound = strain_limit > 1.0 ? std::min(strain_limit, settings_.max_step_strain)
+                                                : settings_.max_step_strain;
+  if (unresolved ||
+      (watch_strain && edge_overstretched(mesh_, x0, x_, start_bound, settings_.max_step_strain))) {
+    // The fail-safe ran out, or the responses tore an edge: redo the step as two halves from
+    // where it started (the attempt's cost stays in the timings; its unresolved pairs do not
+    // count, the halves' do).
     collisions_->rewind_unresolved(unresolved_before);
     x_ = x0;
     v_ = v0;

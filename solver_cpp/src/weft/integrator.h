@@ -27,6 +27,12 @@ struct SolverSettings {
   // the impact-zone fail-safe gets a quarter of its pass budget, so a hard step is split
   // instead of spinning.
   int max_substep_halvings = 2;
+  // ...and one that takes an edge from within the collision stage's strain limit at its start
+  // to more than this many times its rest length at its end, where no GIA recovery or pinch is
+  // under way (0: never). The impulses act per vertex after the solve; on a limb moving metres
+  // per second they stretched single edges to 3.7x in one step, where two half steps keep the
+  // cloth within the strain limit (docs/collisions.md). 1.25x the default strain limit.
+  double max_step_strain = 1.75;
 };
 
 // Everything needed to build a simulation, as flat arrays (cloth pieces concatenated).
@@ -125,7 +131,8 @@ class Simulation {
   };
   StepTimings step(double time, double h, double alpha_end);
   // One substep from frame fraction alpha0 to alpha1, halved while its collision stage leaves
-  // pairs unresolved and depth < max_substep_halvings; adds to the frame's telemetry.
+  // pairs unresolved or overstretches an edge (SolverSettings::max_step_strain) and depth <
+  // max_substep_halvings; adds to the frame's telemetry.
   void substep(double time, double h, double alpha0, double alpha1, int depth, FrameTelemetry& telemetry);
   void build_filter(double h, double alpha_end);
 

@@ -110,4 +110,18 @@ double max_edge_strain(const ClothMesh& mesh, const Positions& x) {
   return strain;
 }
 
+bool edge_overstretched(const ClothMesh& mesh, const Positions& start, const Positions& end, double start_bound,
+                        double end_bound) {
+  const auto& rest = mesh.rest_edge_length;
+  for (Eigen::Index f = 0; f < mesh.faces.rows(); ++f)
+    for (int c = 0; c < 3; ++c) {
+      if (!(rest[f][c] > 0.0)) continue;
+      const int a = mesh.faces(f, c), b = mesh.faces(f, (c + 1) % 3);
+      if ((row3(end, b) - row3(end, a)).norm() > end_bound * rest[f][c] &&
+          (row3(start, b) - row3(start, a)).norm() <= start_bound * rest[f][c])
+        return true;
+    }
+  return false;
+}
+
 }  // namespace weft

@@ -53,6 +53,10 @@ ClothMesh build_cloth_mesh(int vertex_count, const Faces& faces, const FaceUVs& 
 // Largest ratio of an edge's length in x to its rest length (from the triangles' rest frames),
 // over every edge of every triangle: 1 at rest, 1.5 for an edge stretched by half.
 double max_edge_strain(const ClothMesh& mesh, const Positions& x);
+// Whether some edge (per face side, as max_edge_strain) is at most `start_bound` times its rest
+// length at `start` and more than `end_bound` times it at `end`: stretched that far within one step.
+bool edge_overstretched(const ClothMesh& mesh, const Positions& start, const Positions& end, double start_bound,
+                        double end_bound);
 
 // Signed dihedral angle of a hinge in the convention used by the bending force.
 double hinge_angle(const Vec3& x0, const Vec3& x1, const Vec3& x2, const Vec3& x3);
