@@ -16,7 +16,8 @@ from pathlib import Path
 from api_schemas import FrameTelemetry
 from weft import __version__
 from weft.cache import CacheWriter
-from weft.simulate import SolverFailure, advance, initial_telemetry, new_simulation, telemetry_row
+from weft.simulate import (SolverFailure, advance, initial_telemetry, new_simulation, solver_threads,
+                           telemetry_row)
 from weft.solver_setup import Scene
 
 __all__ = ["FrameRecord", "RunSummary", "ShotRunner", "SolverFailure"]
@@ -62,12 +63,14 @@ class ShotRunner:
         frames: int | None = None,
         resume: bool = False,
     ) -> None:
-        """frames: simulate only the first N frames of the range (initial frame included)."""
+        """frames: simulate only the first N frames of the range (initial frame included).
+        threads: asked for; the run uses at most the CPUs it may run on (``threads_used``)."""
         if frames is not None and frames < 1:
             raise ValueError("frames must be at least 1")
         self.scene = scene
         self.cache_path = Path(cache_path)
         self.threads = threads
+        self.threads_used = solver_threads(threads)
         self.frames_total = min(scene.frame_count, frames) if frames else scene.frame_count
         self.resume = resume
 
@@ -79,7 +82,7 @@ class ShotRunner:
         scene = self.scene
         shot = scene.shot
         start_wall = time.perf_counter()
-        sim = new_simulation(scene, self.threads)
+        sim = new_simulation(scene, self.threads_used)
         resumed_from: int | None = None
         if self.resume and self.cache_path.exists():
             writer, state = CacheWriter.resume(self.cache_path, scene.shot_hash)
@@ -87,7 +90,7 @@ class ShotRunner:
                 sim.set_state(state.positions, state.velocities, state.warm_start)
                 resumed_from = state.frame_index
         else:
-            writer = CacheWriter.create(self.cache_path, scene, __version__, self.threads)
+            writer = CacheWriter.create(self.cache_path, scene, __version__, self.threads_used)
         first = shot.frame_range[0]
         summary = RunSummary(self.cache_path, 0, self.frames_total, "running", resumed_from, 0.0)
         status, error = "failed", ""

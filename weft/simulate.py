@@ -9,6 +9,7 @@ into the schema's ``FrameTelemetry``, field by field.
 
 from __future__ import annotations
 
+import os
 from collections.abc import Iterator
 from typing import Any
 
@@ -25,6 +26,20 @@ class SolverFailure(RuntimeError):
         super().__init__(f"frame {frame}: {reason}")
         self.frame = frame
         self.reason = reason
+
+
+def usable_cpus() -> int:
+    """CPUs this process may run on (its affinity mask: a container's cpuset, `taskset`)."""
+    if hasattr(os, "sched_getaffinity"):
+        return max(1, len(os.sched_getaffinity(0)))
+    return max(1, os.cpu_count() or 1)
+
+
+def solver_threads(requested: int) -> int:
+    """The threads a run uses for `requested`: at most the usable CPUs. More threads than CPUs
+    only wait for each other at the solver's barriers (the articulated dress on 2 CPUs: 0.065
+    s/frame with 2 threads, 0.114 with 4), and the results are bitwise the same for any count."""
+    return max(1, min(requested, usable_cpus()))
 
 
 def new_simulation(scene: Scene, threads: int = 1, linear_system: str | None = None) -> Any:

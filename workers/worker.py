@@ -27,6 +27,7 @@ from weft import jobstore, scheduler
 from weft.jobstore import ServiceSettings
 from weft.runner import FrameRecord, ShotRunner, SolverFailure
 from weft.shot import ShotError, parse_shot
+from weft.simulate import solver_threads, usable_cpus
 from weft.solver_setup import resolve_scene
 
 log = logging.getLogger("weft.worker")
@@ -84,6 +85,9 @@ class Worker:
         beat = threading.Thread(target=self._heartbeat_loop, name="heartbeat", daemon=True)
         beat.start()
         log.info("worker %s started (redis %s)", self.name, self.settings.redis_url)
+        if solver_threads(self.settings.solver_threads) < self.settings.solver_threads:
+            log.warning("WEFT_SOLVER_THREADS=%d but this worker may run on %d CPU(s): its runs use %d thread(s)",
+                        self.settings.solver_threads, usable_cpus(), solver_threads(self.settings.solver_threads))
         while not self.stopping.is_set():
             try:
                 self.process_next()

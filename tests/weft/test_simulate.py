@@ -14,7 +14,8 @@ from scenes.builders import sheet_shot
 from scenes.collision import twist_shot
 from weft.cache import open_cache_reader
 from weft.runner import ShotRunner
-from weft.simulate import SolverFailure, advance, initial_telemetry, new_simulation, simulate, telemetry_row
+from weft.simulate import (SolverFailure, advance, initial_telemetry, new_simulation, simulate, solver_threads,
+                           telemetry_row, usable_cpus)
 
 from tests.helpers import make_scene
 
@@ -59,3 +60,32 @@ def test_a_diverging_frame_is_a_solver_failure_at_that_frame() -> None:
         for _ in simulate(scene):
             pass
     assert failure.value.frame == 2 and "non-finite" in failure.value.reason
+
+
+def test_a_run_uses_at_most_the_cpus_it_may_run_on(tmp_path: Path) -> None:
+    cpus = usable_cpus()
+    assert solver_threads(1) == 1 and solver_threads(cpus) == cpus and solver_threads(cpus + 7) == cpus
+    scene = make_scene(sheet_shot("t", 6, 6, 0.3, 0.3, pins=[0, 5], frames=3))
+    asked = ShotRunner(scene, tmp_path / "many.h5", threads=cpus + 7)
+    assert asked.threads == cpus + 7 and asked.threads_used == cpus
+    asked.run()
+    ShotRunner(scene, tmp_path / "one.h5", threads=1).run()
+    with open_cache_reader(tmp_path / "many.h5") as many, open_cache_reader(tmp_path / "one.h5") as one:
+        assert many.attrs["threads"] == cpus  # the cache records the threads the run used
+        assert np.array_equal(many["state/positions"][()], one["state/positions"][()])
+
+
+def test_weft_run_says_when_it_uses_fewer_threads_than_asked(tmp_path: Path) -> None:
+    import json
+    import subprocess
+    import sys
+
+    asked = usable_cpus() + 1
+    if asked > 256:  # --threads allows at most 256
+        pytest.skip("this machine has more usable CPUs than --threads allows")
+    shot = tmp_path / "shot.json"
+    shot.write_text(json.dumps(sheet_shot("t", 4, 4, 0.2, 0.2, pins=[0], frames=2)))
+    done = subprocess.run([sys.executable, "-m", "weft.cli", "run", str(shot), "-o", str(tmp_path / "c.h5"),
+                           "--threads", str(asked), "-q"], capture_output=True, text=True, cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert f"--threads {asked}: this process may run on {usable_cpus()} CPU(s)" in " ".join(done.stderr.split())

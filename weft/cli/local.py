@@ -65,6 +65,9 @@ def run(
     if output.exists() and not resume:
         fail(f"{output} exists; remove it or pass --resume to continue it")
     runner = ShotRunner(scene, output, threads=threads, frames=frames, resume=resume)
+    if runner.threads_used < threads:
+        console.print(f"note: --threads {threads}: this process may run on {runner.threads_used} CPU(s); the solver "
+                      f"uses {runner.threads_used} thread(s) (the results are the same for any count)")
     progress = Progress(
         TextColumn("[bold]{task.description}"),
         BarColumn(),
