@@ -196,7 +196,8 @@ class Body(StrictModel):
             "their joints: cloth stays outside all of them and their overlap is never a pinch; where "
             "two parts' surfaces close on cloth (nearer than two cloth thicknesses, an arm along the "
             "torso) the cloth there is squeezed as in a pinch. Unset: bodies that intersect each "
-            "other at the first frame are joined automatically."
+            "other at the first frame are joined automatically. A body mesh made of several separate "
+            "shells (2 to 64) is split into them, parts of one character."
         ),
     )
 

@@ -86,7 +86,7 @@ def blender_job(scene: Any, frames: int, threads: int, mass: str = "mapped") -> 
         "self_collision": any(switches["piece_self_collide"]),
         "collide": switches["enabled"] and any(switches["piece_collide"]),
         "pin_body": body_pins[0] if body_pins else -1,
-        "bodies": [{"name": b.name, "collide": bool(c)} for b, c in zip(scene.bodies, switches["body_collide"])],
+        "bodies": [{"name": b.name, "collide": bool(spec.collide)} for b, spec in zip(scene.bodies, shot.bodies)],
         "rest": shot.cloth[0].rest.kind,
     }
     job: dict[str, Any] = {

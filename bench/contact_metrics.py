@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from weft.body_shells import mesh_shells
 from weft.geometry import point_triangle_distance, surface_distance  # noqa: F401 - re-exported
 
 
@@ -28,21 +29,6 @@ class BodyTrack:
     name: str
     faces: np.ndarray
     frames: np.ndarray
-
-
-def connected_parts(faces: np.ndarray, vertex_count: int) -> list[np.ndarray]:
-    """Face indices of each connected component of a mesh (components share no vertex)."""
-    label = np.arange(vertex_count)
-    while True:
-        face_label = label[faces].min(axis=1)
-        new = label.copy()
-        np.minimum.at(new, faces.ravel(), np.repeat(face_label, 3))
-        new = new[new]  # pointer jumping
-        if np.array_equal(new, label):
-            break
-        label = new
-    face_label = label[faces[:, 0]]
-    return [np.flatnonzero(face_label == value) for value in np.unique(face_label)]
 
 
 def is_closed(faces: np.ndarray) -> bool:
@@ -74,7 +60,7 @@ class ContactGeometry:
         self.parts: list[tuple[int, np.ndarray, np.ndarray]] = []  # (body, vertex indices, local faces)
         self.closed: list[bool] = []
         for b, body in enumerate(bodies):
-            for face_ids in connected_parts(body.faces, body.frames.shape[1]):
+            for face_ids in mesh_shells(body.faces, body.frames.shape[1]):
                 vertices, local = np.unique(body.faces[face_ids], return_inverse=True)
                 local = local.reshape(-1, 3).astype(np.int32)
                 self.parts.append((b, vertices, local))

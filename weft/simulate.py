@@ -58,8 +58,8 @@ def advance(sim: Any, scene: Scene, index: int) -> Any:
     shot = scene.shot
     frame = shot.frame_range[0] + index
     dt = 1.0 / shot.fps
-    for b, body in enumerate(scene.bodies):
-        sim.set_body_keyframes(b, body.frames[index - 1], body.frames[index])
+    for b, body in enumerate(scene.solver_bodies):
+        sim.set_body_keyframes(b, body.frame(scene.bodies, index - 1), body.frame(scene.bodies, index))
     frame_start_time = (index - 1) * dt
     released = [vertices for time, vertices in scene.pin_releases if time <= frame_start_time + 1e-9 * dt]
     if released:  # idempotent: a resumed run releases what the first run had released

@@ -16,6 +16,7 @@ import numpy as np
 
 from api_schemas import ArrayAsset, Shot
 from weft.assets import check_finite, load_array, load_mesh, load_obj_corner_uvs, shot_hash
+from weft.body_shells import SolverBody, shell_of_nearest_point, split_bodies
 from weft.pin_room import PinGroup, check_pin_room
 from weft.shot import ShotError
 
@@ -58,9 +59,19 @@ class Scene:
     pin_releases: list[tuple[float, np.ndarray]] = field(default_factory=list)
     pin_paths: list[tuple[np.ndarray, np.ndarray]] = field(default_factory=list)
 
+    # The solver's bodies (weft.body_shells): a body mesh of several shells is split into them.
+    _solver_bodies: list[SolverBody] | None = field(default=None, repr=False, compare=False)
+
     @property
     def vertex_count(self) -> int:
         return int(self.positions.shape[0])
+
+    @property
+    def solver_bodies(self) -> list[SolverBody]:
+        """The bodies as the solver sees them (``weft.body_shells.split_bodies``), computed once."""
+        if self._solver_bodies is None:
+            self._solver_bodies = split_bodies(self.bodies)
+        return self._solver_bodies
 
     @property
     def frame_count(self) -> int:
@@ -354,6 +365,17 @@ def retime_animation(samples: np.ndarray, sample_fps: float, frame_offset: float
     return (1.0 - weight) * samples[below] + weight * samples[above]
 
 
+def solver_pin_bodies(scene: Scene) -> np.ndarray:
+    """Per body-pinned cloth vertex, the solver body it is attached to: its body, or of a body
+    split into shells (``Scene.solver_bodies``) the shell nearest the vertex at the start."""
+    out = np.empty(len(scene.body_pin_bodies), dtype=np.int32)
+    for body in np.unique(scene.body_pin_bodies):
+        rows = np.flatnonzero(scene.body_pin_bodies == body)
+        points = scene.positions[scene.body_pin_vertices[rows]]
+        out[rows] = shell_of_nearest_point(scene.solver_bodies, scene.bodies, int(body), points)
+    return out
+
+
 def build_setup(scene: Scene, threads: int = 1, linear_system: str | None = None) -> Any:
     """The C++ SimulationSetup for a scene. linear_system ('fast' or 'reference') overrides the shot's."""
     from weft import _solver
@@ -387,9 +409,9 @@ def build_setup(scene: Scene, threads: int = 1, linear_system: str | None = None
     setup.environment = env
     setup.fixed_pin_vertices = scene.fixed_pins.tolist()
     setup.body_pin_vertices = scene.body_pin_vertices.tolist()
-    setup.body_pin_bodies = scene.body_pin_bodies.tolist()
-    setup.body_faces = [b.faces for b in scene.bodies]
-    setup.body_positions = [np.ascontiguousarray(b.frames[0]) for b in scene.bodies]
+    setup.body_pin_bodies = solver_pin_bodies(scene).tolist()
+    setup.body_faces = [b.faces for b in scene.solver_bodies]
+    setup.body_positions = [b.frame(scene.bodies, 0) for b in scene.solver_bodies]
     solver = _solver.SolverSettings()
     solver.cg_tolerance = shot.solver.cg_tolerance
     solver.cg_max_iterations = shot.solver.cg_max_iterations
@@ -441,12 +463,12 @@ def collision_switches(scene: Scene) -> dict[str, Any]:
     features = shot.features
     piece_collide = piece_body_collide(shot)
     piece_self = piece_self_collide(shot)
-    body_collide = [bool(b.collide) for b in shot.bodies]
+    body_collide = [bool(shot.bodies[b.body].collide) for b in scene.solver_bodies]
     any_body = any(piece_collide) and any(body_collide)
     enabled = any_body or any(piece_self)
     ccd = enabled and (features.ccd if features.ccd is not None else True)
     gia = (-1 if features.gia is None else int(bool(features.gia))) if (any_body or any(piece_self)) else 0
-    groups = body_groups(scene, body_collide) if any_body else [-1] * len(shot.bodies)
+    groups = body_groups(scene, body_collide) if any_body else [-1] * len(body_collide)
     if gia == -1 and any_body and bodies_intersect_each_other(scene, body_collide, groups):
         gia = 1
     return {
@@ -460,22 +482,26 @@ def collision_switches(scene: Scene) -> dict[str, Any]:
     }
 
 
-def _intersect(a: BodyArrays, b: BodyArrays, frame: int) -> bool:
+def _intersect(scene: Scene, a: SolverBody, b: SolverBody, frame: int) -> bool:
     from weft import _solver
 
-    return bool(_solver.body_intersection(np.ascontiguousarray(a.frames[frame]), a.faces,
-                                          np.ascontiguousarray(b.frames[frame]), b.faces)["intersecting"])
+    return bool(_solver.body_intersection(a.frame(scene.bodies, frame), a.faces,
+                                          b.frame(scene.bodies, frame), b.faces)["intersecting"])
 
 
 def body_groups(scene: Scene, body_collide: list[bool]) -> list[int]:
-    """Per body: the articulated character it is a part of (an index), or -1 for none.
+    """Per solver body (``Scene.solver_bodies``; body_collide likewise): the articulated
+    character it is a part of (an index), or -1 for none.
 
-    Bodies with the same ``group`` name form one character. Collidable bodies without a group
-    that intersect each other at the first frame are joined into one (the usual collision proxy
-    of a character: closed parts overlapping at the joints). Pairs of parts of one character are
-    never body/body pinches, and their meeting does not switch GIA on."""
-    bodies = scene.bodies
+    Bodies with the same ``group`` name form one character, and so do the shells of one body
+    mesh (``weft.body_shells``). Collidable bodies without a group that intersect each other at
+    the first frame are joined into one (the usual collision proxy of a character: closed parts
+    overlapping at the joints). Pairs of parts of one character are never body/body pinches, and
+    their meeting does not switch GIA on."""
+    bodies = scene.solver_bodies
+    specs = [scene.shot.bodies[b.body] for b in bodies]
     named: dict[str, int] = {}
+    whole: dict[int, int] = {}
     parent = list(range(len(bodies)))
 
     def find(i: int) -> int:
@@ -484,18 +510,20 @@ def body_groups(scene: Scene, body_collide: list[bool]) -> list[int]:
             i = parent[i]
         return i
 
-    for i, spec in enumerate(scene.shot.bodies):
+    for i, (body, spec) in enumerate(zip(bodies, specs)):
         if spec.group is not None:
             j = named.setdefault(spec.group, i)
             parent[find(i)] = find(j)
-    free = [i for i, spec in enumerate(scene.shot.bodies) if spec.group is None and body_collide[i]]
-    lo = {i: bodies[i].frames[0].min(axis=0) for i in free}
-    hi = {i: bodies[i].frames[0].max(axis=0) for i in free}
+        j = whole.setdefault(body.body, i)  # shells of one mesh
+        parent[find(i)] = find(j)
+    free = [i for i, spec in enumerate(specs) if spec.group is None and body_collide[i]]
+    lo = {i: bodies[i].frame(scene.bodies, 0).min(axis=0) for i in free}
+    hi = {i: bodies[i].frame(scene.bodies, 0).max(axis=0) for i in free}
     for a_index, i in enumerate(free):
         for j in free[a_index + 1:]:
             if find(i) == find(j) or not np.all((lo[i] <= hi[j]) & (lo[j] <= hi[i])):
                 continue
-            if _intersect(bodies[i], bodies[j], 0):
+            if _intersect(scene, bodies[i], bodies[j], 0):
                 parent[max(find(i), find(j))] = min(find(i), find(j))
     roots = [find(i) for i in range(len(bodies))]
     size = {r: roots.count(r) for r in roots}
@@ -504,20 +532,25 @@ def body_groups(scene: Scene, body_collide: list[bool]) -> list[int]:
 
 def bodies_intersect_each_other(scene: Scene, body_collide: list[bool] | None = None,
                                 groups: list[int] | None = None) -> bool:
-    """Whether two collidable bodies that are not parts of one character (``body_groups``)
-    intersect each other (surfaces cross, or a vertex of one is inside the other, closed, body)
-    at some animation frame. Exact (``_solver.body_intersection``); frames whose bounding boxes
-    do not overlap are skipped, and a frame where both bodies are where they were at the last
-    tested frame reuses its answer, so long or static shots stay cheap. Motion between
-    keyframes is not looked at."""
-    collide = body_collide or [True] * len(scene.bodies)
-    groups = groups or [-1] * len(scene.bodies)
+    """Whether two collidable solver bodies (``Scene.solver_bodies``; body_collide and groups
+    likewise) that are not parts of one character (``body_groups``) intersect each other
+    (surfaces cross, or a vertex of one is inside the other, closed, body) at some animation
+    frame. Exact (``_solver.body_intersection``); frames whose bounding boxes do not overlap are
+    skipped, and a frame where both bodies are where they were at the last tested frame reuses
+    its answer, so long or static shots stay cheap. Motion between keyframes is not looked at."""
+    bodies = scene.solver_bodies
+    collide = body_collide or [True] * len(bodies)
+    groups = groups or [-1] * len(bodies)
     ids = [i for i, c in enumerate(collide) if c]
     if len(ids) < 2:
         return False
-    bodies = scene.bodies
-    lo = {i: bodies[i].frames.min(axis=1) for i in ids}  # (frames, 3) per body
-    hi = {i: bodies[i].frames.max(axis=1) for i in ids}
+
+    def track(i: int) -> np.ndarray:  # (frames, V, 3) of solver body i
+        frames = scene.bodies[bodies[i].body].frames
+        return frames if bodies[i].vertices is None else frames[:, bodies[i].vertices]
+
+    lo = {i: track(i).min(axis=1) for i in ids}  # (frames, 3) per body
+    hi = {i: track(i).max(axis=1) for i in ids}
     for a_index, i in enumerate(ids):
         for j in ids[a_index + 1:]:
             if groups[i] >= 0 and groups[i] == groups[j]:
@@ -525,10 +558,10 @@ def bodies_intersect_each_other(scene: Scene, body_collide: list[bool] | None = 
             overlap = np.all((lo[i] <= hi[j]) & (lo[j] <= hi[i]), axis=1)
             last: tuple[np.ndarray, np.ndarray] | None = None
             for k in np.flatnonzero(overlap):
-                xa, xb = bodies[i].frames[k], bodies[j].frames[k]
+                xa, xb = bodies[i].frame(scene.bodies, int(k)), bodies[j].frame(scene.bodies, int(k))
                 if last is not None and np.array_equal(xa, last[0]) and np.array_equal(xb, last[1]):
                     continue  # same as the last tested frame: not intersecting
-                if _intersect(bodies[i], bodies[j], int(k)):
+                if _intersect(scene, bodies[i], bodies[j], int(k)):
                     return True
                 last = (xa, xb)
     return False
@@ -552,7 +585,7 @@ def collision_settings(scene: Scene) -> Any:
     settings.body_collide = switches["body_collide"]
     settings.body_group = switches["body_group"]
     if any(b.collision_offset for b in scene.shot.bodies):
-        settings.body_offset = [float(b.collision_offset) for b in scene.shot.bodies]
+        settings.body_offset = [float(scene.shot.bodies[b.body].collision_offset) for b in scene.solver_bodies]
     settings.face_thickness = np.repeat([m.thickness for m in materials], counts).astype(np.float64)
     settings.face_friction = np.repeat([m.friction for m in materials], counts).astype(np.float64)
     return settings
