@@ -54,6 +54,7 @@ DEFAULT_FRAMES = {
     "articulated_dress": 120,
     "articulated_dress_merged": 120,
     "walking_dress": 120,
+    "layered_dress": 60,
 }
 
 

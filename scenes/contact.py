@@ -21,6 +21,9 @@ Scenes (`SCENES` maps names to builders):
   merged body (the same overlapping parts concatenated).
 - `walking_dress`: the articulated dress on the same character also walking forward at 1.2 m/s
   (eased in with the swing): cloth riding a body whose absolute motion is large.
+- `layered_dress`: the articulated dress with a second piece over it, a skirt from the hips to
+  above the knees that starts 12 mm outside the dress's starting surface with a rest girth 0.9
+  of that: two garments pressed on each other (cloth/cloth contact between pieces).
 """
 
 from __future__ import annotations
@@ -249,6 +252,24 @@ def walking_dress(directory: Path, frames: int = 24, speed: float = 1.2, **kwarg
     return articulated_dress(directory, frames=frames, walk=speed, **kwargs)
 
 
+def layered_dress(directory: Path, frames: int = 24, around: int = 64, along: int = 48, skirt_around: int = 72,
+                  skirt_along: int = 24, skirt_offset: float = 0.012, skirt_shrink: float = 0.9,
+                  **kwargs: Any) -> dict[str, Any]:
+    """`articulated_dress` with a skirt over the dress: an open tube from y = 1.0 down to 0.62
+    (`skirt_around` x `skirt_along` vertices), `skirt_offset` outside the supporting parts (the
+    dress starts 5 mm outside them), rest girth `skirt_shrink` times its starting one, the
+    dress's material."""
+    doc = articulated_dress(directory, frames=frames, around=around, along=along, **kwargs)
+    skirt_v, skirt_f = dress_mesh(character_parts(), skirt_around, skirt_along, top=1.0, bottom=0.62,
+                                  offset=skirt_offset)
+    np.savez(directory / "skirt_rest.npz", positions=skirt_v * [skirt_shrink, 1.0, skirt_shrink])
+    skirt = {**doc["cloth"][0], "name": "skirt", "mesh": inline_mesh(skirt_v, skirt_f),
+             "rest": {"kind": "positions", "positions": {"path": "skirt_rest.npz"}}}
+    doc["cloth"].append(skirt)
+    doc["name"] = "layered_dress"
+    return doc
+
+
 SCENES: dict[str, Callable[..., dict[str, Any]]] = {
     "drape_sphere": drape_sphere,
     "drape_sphere_16k": drape_sphere_16k,
@@ -258,4 +279,5 @@ SCENES: dict[str, Callable[..., dict[str, Any]]] = {
     "articulated_dress": articulated_dress,
     "articulated_dress_merged": articulated_dress_merged,
     "walking_dress": walking_dress,
+    "layered_dress": layered_dress,
 }

@@ -135,5 +135,71 @@ TEST(ImpactZones, AZoneBetweenTwoBodiesMovesNoFasterThanTheirPoints) {
   EXPECT_GT(v(1, 2), 0.9);
 }
 
+// A zone that no motion frees (the re-detection finds the same pair every pass, as between two
+// bodies moving apart) stops after ImpactZones::kStallPasses passes, not the whole budget, and
+// its pair counts as unresolved.
+TEST(ImpactZones, StopsWhenPassesFindNoFewerCollisions) {
+  VertexOverTriangle t(0.5, true);
+  t.v.row(0) << 0.0, 0.0, -100.0;
+  t.begin(0.01);
+  CollisionTelemetry frame;
+  std::vector<int> hits = {0};
+  int redetections = 0;
+  ImpactZones().resolve(
+      t.step, t.props, hits, 100,
+      [&](std::vector<int>& found) {
+        ++redetections;
+        found = {0};
+      },
+      frame);
+  EXPECT_EQ(redetections, ImpactZones::kStallPasses);
+  EXPECT_EQ(frame.unresolved, 1);
+  // Passes that keep finding fewer pairs run on (up to the budget).
+  std::vector<int> many = {0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0};
+  redetections = 0;
+  ImpactZones().resolve(
+      t.step, t.props, many, 100,
+      [&](std::vector<int>& found) {
+        ++redetections;
+        found.assign(19 - std::min(redetections, 19), 0);
+      },
+      frame);
+  EXPECT_EQ(redetections, 19);
+  EXPECT_TRUE(many.empty());
+}
+
+// Only points whose velocity a pass changed, or that were in a colliding pair, are marked for
+// re-detection: a zone whose velocity stays the same is not queried again.
+TEST(ImpactZones, MarksOnlyChangedVelocitiesAndCollidingPoints) {
+  // Two free vertex-over-triangle quads far apart: points 0-3 and 4-7.
+  Positions x(8, 3), v = Positions::Zero(8, 3);
+  x << 0.2, 0.2, 0.5, 0, 0, 0, 1, 0, 0, 0, 1, 0, 5.2, 0.2, 0.5, 5, 0, 0, 6, 0, 0, 5, 1, 0;
+  v(0, 2) = -100.0;
+  v(4, 2) = -100.0;
+  ContactProperties props;
+  props.inverse_mass.assign(8, 1.0);
+  props.thickness.assign(8, kThickness);
+  props.friction.assign(8, 0.5);
+  CollisionStep step;
+  step.begin(x, v, 0.01);
+  step.pairs = {FeaturePair{{0, 1, 2, 3}, -1, false}, FeaturePair{{4, 5, 6, 7}, -1, false}};
+  std::vector<int> hits = {0};
+  std::vector<std::vector<char>> marked;
+  CollisionTelemetry frame;
+  ImpactZones().resolve(
+      step, props, hits, 3,
+      [&](std::vector<int>& found) {
+        marked.push_back(step.changed);
+        std::fill(step.changed.begin(), step.changed.end(), 0);  // as a CCD pass resets it
+        found = marked.size() == 1 ? std::vector<int>{1} : std::vector<int>{};
+      },
+      frame);
+  ASSERT_EQ(marked.size(), 2u);
+  EXPECT_EQ(marked[0], std::vector<char>({1, 1, 1, 1, 0, 0, 0, 0}));
+  // Second pass: the first zone keeps its common velocity (not marked); the new one is marked.
+  EXPECT_EQ(marked[1], std::vector<char>({0, 0, 0, 0, 1, 1, 1, 1}));
+  for (int i = 0; i < 8; ++i) EXPECT_EQ(v(i, 2), -25.0) << "point " << i;
+}
+
 }  // namespace
 }  // namespace weft

@@ -23,7 +23,14 @@ int ImpactZones::resolve(CollisionStep& step, const ContactProperties& props, st
   };
   std::vector<BodyReference> body_references;
   int zone_count = 0;
-  for (int iteration = 0; iteration < iterations && !hits.empty(); ++iteration) {
+  // A zone that must move with two bodies moving apart (cloth caught between two legs) cannot
+  // be made collision-free by any rigid or affine motion: its passes find as many colliding
+  // pairs pass after pass. Once kStallPasses passes in a row found no fewer than the fewest so
+  // far, the rest of the budget would be spent the same way: the pairs left are unresolved (the
+  // caller halves the step, or GIA recovers what stays in intersection).
+  size_t fewest = hits.size();
+  int since_fewest = 0;
+  for (int iteration = 0; iteration < iterations && !hits.empty() && since_fewest < kStallPasses; ++iteration) {
     const Timer timer;
     ++frame.iterations;
     for (int k : hits) {
@@ -32,6 +39,7 @@ int ImpactZones::resolve(CollisionStep& step, const ContactProperties& props, st
       for (int p : pair.point) {
         if (p < 0) continue;
         in_zone[p] = 1;
+        step.changed[p] = 1;  // tested again whether or not its velocity changes
         if (first < 0) first = p; else zones.unite(first, p);
       }
       for (int p : pair.point)
@@ -110,6 +118,11 @@ int ImpactZones::resolve(CollisionStep& step, const ContactProperties& props, st
         vz = ref_sum[r] / ref_count[r] + deviation;
       } else
         vz = momentum[r] / mass[r];
+      // Only a velocity that changed (or a point of a pair that collided, above) makes its pairs
+      // worth testing again: a pair whose points all kept their velocities since it was last
+      // found clear is clear still. A zone that neither grew nor merged keeps its velocity
+      // field, so its points are not re-queried pass after pass.
+      if (vz == Vec3(row3(v, i))) continue;
       v.row(i) = vz.transpose();
       step.moved(i);
       step.changed[i] = 1;
@@ -117,6 +130,12 @@ int ImpactZones::resolve(CollisionStep& step, const ContactProperties& props, st
     frame.response_seconds += timer.seconds();
     hits.clear();
     redetect(hits);
+    if (hits.size() < fewest) {
+      fewest = hits.size();
+      since_fewest = 0;
+    } else {
+      ++since_fewest;
+    }
   }
   frame.impact_zones += zone_count;
   frame.unresolved += static_cast<int>(hits.size());

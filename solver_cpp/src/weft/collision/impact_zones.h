@@ -12,9 +12,13 @@ namespace weft {
 
 class ImpactZones {
  public:
+  // Passes in a row without fewer colliding pairs than the fewest so far after which the rest
+  // of the budget is not spent (impact_zones.cpp).
+  static constexpr int kStallPasses = 10;
   // hits: indices into step.pairs of the colliding pairs; after each pass of zone velocities
   // `redetect` refills it (detection and CCD against the new velocities). At most `iterations`
-  // passes; the hits left count as unresolved. Returns the number of zones of the last pass.
+  // passes, fewer once kStallPasses passes in a row found no fewer hits; the hits left count as
+  // unresolved. Returns the number of zones of the last pass.
   int resolve(CollisionStep& step, const ContactProperties& props, std::vector<int>& hits, int iterations,
               const std::function<void(std::vector<int>&)>& redetect, CollisionTelemetry& frame) const;
 };
