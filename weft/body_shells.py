@@ -84,6 +84,16 @@ def split_bodies(bodies: Sequence[HasFrames], max_shells: int = MAX_SHELLS) -> l
     return out
 
 
+def split_notes(names: Sequence[str], solver_bodies: Sequence[SolverBody]) -> list[str]:
+    """One line per body split into shells, for the command line (`weft validate`, `weft run`)."""
+    counts: dict[int, int] = {}
+    for s in solver_bodies:
+        if s.vertices is not None:
+            counts[s.body] = counts.get(s.body, 0) + 1
+    return [f"note: bodies[{b}] '{names[b]}' is {n} separate shells: simulated as {n} parts of one character "
+            "(they may overlap; cloth is kept out of each)" for b, n in sorted(counts.items())]
+
+
 def shell_of_nearest_point(solver_bodies: Sequence[SolverBody], bodies: Sequence[HasFrames], body: int,
                            points: np.ndarray) -> np.ndarray:
     """For points attached to the shot's body `body` (its closest point at frame 0), the index

@@ -108,3 +108,21 @@ def test_shells_keep_the_cloth_out_of_each(gap):
         assert t.intersections == 0
         for px, pf in ((a, fa), (b, fb)):
             assert not _solver.points_inside_closed_mesh(sim.positions, px, pf.astype(np.int32)).any()
+
+
+def test_the_command_line_says_which_bodies_are_split(tmp_path):
+    import json
+    import subprocess
+    import sys
+
+    a, fa, b, fb = two_boxes(-0.05)
+    x, faces = merged(a, fa, b, fb)
+    doc = shot([("body", x, faces), ("left", a, fa)], frames=2)
+    path = tmp_path / "shot.json"
+    path.write_text(json.dumps(doc))
+    done = subprocess.run([sys.executable, "-m", "weft.cli", "validate", str(path)], capture_output=True, text=True,
+                          timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert "2 bodies" in done.stdout
+    assert "bodies[0] 'body' is 2 separate shells" in done.stderr
+    assert "bodies[1]" not in done.stderr  # one shell: as given

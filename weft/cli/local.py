@@ -42,6 +42,14 @@ def validate(shot: Annotated[Path, typer.Argument(help="Shot file (.json/.yaml)"
         f"[green]ok[/] {scene.shot.name}: {len(scene.pieces)} cloth piece(s), {scene.vertex_count} vertices, "
         f"{len(scene.faces)} faces, {len(scene.bodies)} bodies, {scene.frame_count} frames"
     )
+    _print_split_bodies(scene)
+
+
+def _print_split_bodies(scene: Any) -> None:
+    from weft.body_shells import split_notes
+
+    for line in split_notes([b.name for b in scene.bodies], scene.solver_bodies):
+        console.print(line, markup=False)
 
 
 @app.command()
@@ -65,6 +73,7 @@ def run(
     if output.exists() and not resume:
         fail(f"{output} exists; remove it or pass --resume to continue it")
     runner = ShotRunner(scene, output, threads=threads, frames=frames, resume=resume)
+    _print_split_bodies(scene)
     if runner.threads_used < threads:
         console.print(f"note: --threads {threads}: this process may run on {runner.threads_used} CPU(s); the solver "
                       f"uses {runner.threads_used} thread(s) (the results are the same for any count)")
