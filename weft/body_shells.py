@@ -53,12 +53,21 @@ def mesh_shells(faces: np.ndarray, vertex_count: int) -> list[np.ndarray]:
     faces = np.asarray(faces)
     if len(faces) == 0:
         return []
+    # Labels (a vertex of the same shell) only decrease; each round hooks every vertex and its
+    # old label to the smallest label of its faces, then follows labels to their roots (the
+    # Shiloach-Vishkin scheme): about ten rounds on a 300k-face sphere, where following one step
+    # per round took over a hundred.
     label = np.arange(vertex_count)
     while True:
         face_label = label[faces].min(axis=1)
         new = label.copy()
         np.minimum.at(new, faces.ravel(), np.repeat(face_label, 3))
-        new = new[new]  # pointer jumping
+        np.minimum.at(new, label, new)
+        while True:
+            root = new[new]
+            if np.array_equal(root, new):
+                break
+            new = root
         if np.array_equal(new, label):
             break
         label = new

@@ -126,3 +126,14 @@ def test_the_command_line_says_which_bodies_are_split(tmp_path):
     assert "2 bodies" in done.stdout
     assert "bodies[0] 'body' is 2 separate shells" in done.stderr
     assert "bodies[1]" not in done.stderr  # one shell: as given
+
+
+def test_mesh_shells_of_many_shuffled_shells():
+    # 30 boxes in a row, the vertex numbering shuffled: 30 shells, each box's 12 faces.
+    boxes = [box_mesh((0.1, 0.1, 0.1), (0.5 * k, 0.0, 0.0)) for k in range(30)]
+    x = np.concatenate([v for v, _ in boxes])
+    faces = np.concatenate([f + 8 * k for k, (_, f) in enumerate(boxes)])
+    order = np.random.default_rng(3).permutation(len(x))
+    renumber = np.argsort(order)
+    shells = mesh_shells(renumber[faces], len(x))
+    assert [s.tolist() for s in shells] == [list(range(12 * k, 12 * k + 12)) for k in range(30)]
