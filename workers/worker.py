@@ -24,6 +24,7 @@ import redis
 
 from api_schemas import FrameTelemetry
 from weft import jobstore, scheduler
+from weft.body_shells import split_notes
 from weft.jobstore import ServiceSettings
 from weft.runner import FrameRecord, ShotRunner, SolverFailure
 from weft.shot import ShotError, parse_shot
@@ -246,6 +247,8 @@ class Worker:
             return cancel == "1"
 
         runner = ShotRunner(scene, cache, threads=self.settings.solver_threads, resume=True)
+        for line in split_notes([b.name for b in scene.bodies], scene.solver_bodies):
+            log.info("%s", line.removeprefix("note: "))
         try:
             summary = runner.run(on_frame=on_frame, should_stop=should_stop)
         except SolverFailure as exc:
