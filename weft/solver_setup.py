@@ -482,11 +482,11 @@ def collision_switches(scene: Scene) -> dict[str, Any]:
     }
 
 
-def _intersect(scene: Scene, a: SolverBody, b: SolverBody, frame: int) -> bool:
+def _intersect(xa: np.ndarray, a: SolverBody, xb: np.ndarray, b: SolverBody) -> bool:
+    """Whether solver bodies a and b, at positions xa and xb, intersect each other."""
     from weft import _solver
 
-    return bool(_solver.body_intersection(a.frame(scene.bodies, frame), a.faces,
-                                          b.frame(scene.bodies, frame), b.faces)["intersecting"])
+    return bool(_solver.body_intersection(xa, a.faces, xb, b.faces)["intersecting"])
 
 
 def body_groups(scene: Scene, body_collide: list[bool]) -> list[int]:
@@ -517,13 +517,14 @@ def body_groups(scene: Scene, body_collide: list[bool]) -> list[int]:
         j = whole.setdefault(body.body, i)  # shells of one mesh
         parent[find(i)] = find(j)
     free = [i for i, spec in enumerate(specs) if spec.group is None and body_collide[i]]
-    lo = {i: bodies[i].frame(scene.bodies, 0).min(axis=0) for i in free}
-    hi = {i: bodies[i].frame(scene.bodies, 0).max(axis=0) for i in free}
+    first = {i: bodies[i].frame(scene.bodies, 0) for i in free}
+    lo = {i: first[i].min(axis=0) for i in free}
+    hi = {i: first[i].max(axis=0) for i in free}
     for a_index, i in enumerate(free):
         for j in free[a_index + 1:]:
             if find(i) == find(j) or not np.all((lo[i] <= hi[j]) & (lo[j] <= hi[i])):
                 continue
-            if _intersect(scene, bodies[i], bodies[j], 0):
+            if _intersect(first[i], bodies[i], first[j], bodies[j]):
                 parent[max(find(i), find(j))] = min(find(i), find(j))
     roots = [find(i) for i in range(len(bodies))]
     size = {r: roots.count(r) for r in roots}
@@ -561,7 +562,7 @@ def bodies_intersect_each_other(scene: Scene, body_collide: list[bool] | None = 
                 xa, xb = bodies[i].frame(scene.bodies, int(k)), bodies[j].frame(scene.bodies, int(k))
                 if last is not None and np.array_equal(xa, last[0]) and np.array_equal(xb, last[1]):
                     continue  # same as the last tested frame: not intersecting
-                if _intersect(scene, bodies[i], bodies[j], int(k)):
+                if _intersect(xa, bodies[i], xb, bodies[j]):
                     return True
                 last = (xa, xb)
     return False
