@@ -82,7 +82,9 @@ def test_contacts_stay_on_away_from_an_engaged_part_pinch(tmp_path):
     local = run_sweep(tmp_path / "local")
     everywhere = run_sweep(tmp_path / "everywhere", local_aside=False)
     for rows, held in ((local, True), (everywhere, False)):
-        engaged = [r for r in rows if r["parts"] > 0][1:]  # the first engaged frame starts clean
+        # The first engaged frame starts clean, and the pinch may end within the last one: the
+        # frames between are engaged at every substep.
+        engaged = [r for r in rows if r["parts"] > 0][1:-1]
         assert engaged, trace(rows)
         assert (sum(r["constraints"] for r in engaged) > 0) == held, trace(rows)
 

@@ -49,6 +49,50 @@ TEST(ProximityResponse, PushesARestingVertexTowardsTheThicknessWithFriction) {
   EXPECT_EQ(ProximityResponse().apply(t.step, t.props, frame), 0);
 }
 
+TEST(ProximityResponse, SweepsBringStackedLayersToTheirTargets) {
+  // Three layers 0.4 thickness apart: a large pinned triangle (0-2) at z = 0, a free triangle
+  // (3-5) above it, a free vertex 6 above that falling onto the stack. A sweep in list order
+  // pushes the middle layer down on the vertex's pair, then back up on its pairs with the
+  // pinned triangle, into the vertex again: each further sweep leaves less of that.
+  const double z = 0.4 * kThickness, h = 0.01;
+  Positions x(7, 3);
+  x << -1, -1, 0, 3, -1, 0, -1, 3, 0,  // pinned
+      0, 0, z, 1, 0, z, 0, 1, z,       // free
+      0.2, 0.2, 2.0 * z;
+  ContactProperties props;
+  props.inverse_mass = {0.0, 0.0, 0.0, 1.0, 1.0, 1.0, 1.0};
+  props.thickness.assign(7, kThickness);
+  props.friction.assign(7, 0.0);
+  props.default_thickness = kThickness;
+  const std::vector<FeaturePair> pairs = {FeaturePair{{6, 3, 4, 5}, -1, false}, FeaturePair{{3, 0, 1, 2}, -1, false},
+                                          FeaturePair{{4, 0, 1, 2}, -1, false}, FeaturePair{{5, 0, 1, 2}, -1, false}};
+  // The largest shortfall of a pair's normal velocity below its repulsion target after `sweeps`.
+  auto shortfall_after = [&](int sweeps) {
+    Positions v = Positions::Zero(7, 3);
+    v.row(6) << 0.0, 0.0, -2.0;
+    CollisionStep step;
+    step.begin(x, v, h);
+    step.proximity_pairs = pairs;
+    CollisionTelemetry frame;
+    EXPECT_EQ(ProximityResponse(sweeps).apply(step, props, frame), 4);
+    double worst = 0.0;
+    for (const FeaturePair& pair : pairs) {
+      std::array<Vec3, 4> s;
+      std::array<double, 4> w;
+      for (int i = 0; i < 4; ++i) s[i] = row3(x, pair.point[i]);
+      const double d = pair_weights(s, false, w);
+      Vec3 v_rel = Vec3::Zero();
+      for (int i = 0; i < 4; ++i) v_rel += w[i] * row3(v, pair.point[i]);
+      worst = std::max(worst, kRepulsionRate * (kThickness - d) / h - (combine(s, w) / d).dot(v_rel));
+    }
+    return worst;
+  };
+  const double one = shortfall_after(1), default_sweeps = shortfall_after(kProximitySweeps);
+  EXPECT_GT(one, 0.5 * kRepulsionRate * kThickness / h);  // one sweep: the vertex still falls
+  EXPECT_LT(default_sweeps, 0.5 * one);
+  EXPECT_LT(shortfall_after(200), 1e-9);  // converged: every pair at its target
+}
+
 TEST(CcdResponse, StopsAVertexFallingThroughATriangle) {
   VertexOverTriangle t(0.5);
   t.v.row(0) << 0.0, 0.0, -100.0;  // through the triangle within the step
