@@ -1,6 +1,7 @@
 #include "weft/collision/contact_detection.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <limits>
@@ -23,6 +24,10 @@ ContactDetection::ContactDetection(const Faces& cloth_faces, const Positions& x,
       face_margin_(std::move(face_margin)), self_culling_(self_culling) {
   any_self_ = std::any_of(face_self_.begin(), face_self_.end(), [](char c) { return c != 0; });
   for (double m : face_margin_) largest_margin_ = std::max(largest_margin_, m);
+  self_shrink_ = std::numeric_limits<double>::infinity();
+  for (size_t f = 0; f < face_margin_.size(); ++f)
+    if (face_self_[f]) self_shrink_ = std::min(self_shrink_, face_margin_[f]);
+  if (!std::isfinite(self_shrink_)) self_shrink_ = 0.0;
   cloth_own_ = assign_features(cloth_faces_, static_cast<int>(x.rows()));
   triangle_boxes(cloth_faces_, x, x, face_margin_, cloth_boxes_);
   // Faces paired with an edge neighbour (pair_faces_across_edges) are siblings in the tree, so
@@ -330,9 +335,9 @@ void ContactDetection::collect(CollisionStep& step, const ContactFilter& filter,
       culled = &culling_.culled();
     }
     if (shift)
-      cloth_tree_.self_pairs(*shift, scratch_pairs_, culled, threads_);
+      cloth_tree_.self_pairs(*shift, scratch_pairs_, culled, threads_, fraction * self_shrink_);
     else
-      cloth_tree_.self_pairs(scratch_pairs_, culled, threads_);
+      cloth_tree_.self_pairs(scratch_pairs_, culled, threads_, fraction * self_shrink_);
     ordered_append(static_cast<std::int64_t>(scratch_pairs_.size()), kExpandChunk, threads_, pairs, chunk_pairs_,
                    [&](std::int64_t k, std::vector<FeaturePair>& out) {
                      const auto [a, b] = scratch_pairs_[k];
@@ -476,10 +481,14 @@ void ContactDetection::collect_changed(CollisionStep& step, const ContactFilter&
         const Sweep sweep{&x, &end, &x, &end, gap, nullptr, shift};
         expand_triangle_pair(lo, hi, -1, filter, out, &sweep);
       };
+      // The face's box less the self shrink (AabbTree::self_pairs'): a face a self pair is wanted
+      // with has a box that overlaps a's by that much.
+      Aabb box = shift ? shifted_cloth_box(a, *shift) : cloth_boxes_[a];
+      box.inflate(-fraction * self_shrink_);
       if (shift)
-        cloth_tree_.query(shifted_cloth_box(a, *shift), *shift, expand);
+        cloth_tree_.query(box, *shift, expand);
       else
-        cloth_tree_.query(cloth_boxes_[a], expand);
+        cloth_tree_.query(box, expand);
     });
     frame.self_collision_seconds += self_timer.seconds();
   }

@@ -163,6 +163,10 @@ class ContactDetection {
   std::vector<char> face_collide_, face_self_;
   std::vector<double> face_margin_, scaled_margin_;
   double largest_margin_ = 0.0;
+  // The smallest margin of a self-colliding face: each box of a self pair is grown by its face's
+  // margin, and a pair is wanted within the larger of the two, so the self traversals ask the
+  // boxes to overlap by this much (AabbTree::self_pairs' shrink), not to merely touch.
+  double self_shrink_ = 0.0;
   bool any_self_ = false, any_body_ = false;
   bool self_culling_ = true;
   SelfCollisionCulling culling_;  // with self-collision and self_culling_

@@ -222,24 +222,26 @@ void AabbTree::topmost_marked(const std::vector<char>& marked, std::vector<int>&
   }
 }
 
-void AabbTree::self_pairs(std::vector<std::pair<int, int>>& out, const std::vector<char>* culled, int threads) const {
+void AabbTree::self_pairs(std::vector<std::pair<int, int>>& out, const std::vector<char>* culled, int threads,
+                          double shrink) const {
   if (nodes_.empty()) return;
   if (threads <= 1) {
-    self_node(0, out, culled);
+    self_node(0, out, culled, nullptr, shrink);
     return;
   }
-  run_tasks(split_tasks({{0, 0, true}}, *this, true, culled, 16 * threads), *this, true, culled, threads, out);
+  run_tasks(split_tasks({{0, 0, true}}, *this, true, culled, 16 * threads), *this, true, culled, threads, out, nullptr,
+            shrink);
 }
 
 void AabbTree::self_pairs(const Vec3& shift, std::vector<std::pair<int, int>>& out, const std::vector<char>* culled,
-                          int threads) const {
+                          int threads, double shrink) const {
   if (nodes_.empty()) return;
   if (threads <= 1) {
-    self_node(0, out, culled, &shift);
+    self_node(0, out, culled, &shift, shrink);
     return;
   }
   run_tasks(split_tasks({{0, 0, true}}, *this, true, culled, 16 * threads, &shift), *this, true, culled, threads, out,
-            &shift);
+            &shift, shrink);
 }
 
 std::vector<AabbTree::Task> AabbTree::split_tasks(std::vector<Task> tasks, const AabbTree& tb, bool same,
@@ -288,24 +290,24 @@ std::vector<AabbTree::Task> AabbTree::split_tasks(std::vector<Task> tasks, const
 
 void AabbTree::run_tasks(const std::vector<Task>& tasks, const AabbTree& tb, bool same,
                          const std::vector<char>* culled, int threads, std::vector<std::pair<int, int>>& out,
-                         const Vec3* shift) const {
+                         const Vec3* shift, double shrink) const {
   ordered_append(static_cast<std::int64_t>(tasks.size()), 1, threads, out,
                  [&](std::int64_t k, std::vector<std::pair<int, int>>& part) {
                    const Task& t = tasks[k];
                    if (t.self)
-                     self_node(t.a, part, culled, shift);
+                     self_node(t.a, part, culled, shift, shrink);
                    else
-                     cross(t.a, tb, t.b, same, part, shift);
+                     cross(t.a, tb, t.b, same, part, shift, shrink);
                  });
 }
 
 void AabbTree::self_node(int n, std::vector<std::pair<int, int>>& out, const std::vector<char>* culled,
-                         const Vec3* shift) const {
+                         const Vec3* shift, double shrink) const {
   const Node& node = nodes_[n];
   if (node.leaf >= 0 || (culled && (*culled)[n])) return;
-  self_node(node.left, out, culled, shift);
-  self_node(node.right, out, culled, shift);
-  cross(node.left, *this, node.right, true, out, shift);
+  self_node(node.left, out, culled, shift, shrink);
+  self_node(node.right, out, culled, shift, shrink);
+  cross(node.left, *this, node.right, true, out, shift, shrink);
 }
 
 void AabbTree::pairs(const AabbTree& other, std::vector<std::pair<int, int>>& out, int threads) const {
@@ -329,24 +331,24 @@ void AabbTree::pairs(const AabbTree& other, const Vec3& shift, std::vector<std::
 }
 
 void AabbTree::cross(int a, const AabbTree& tb, int b, bool same, std::vector<std::pair<int, int>>& out,
-                     const Vec3* shift) const {
+                     const Vec3* shift, double shrink) const {
   if (shift == nullptr) {
     cross_with(a, tb, b, same, out, [this](int n) -> const Aabb& { return nodes_[n].box; },
-               [&tb](int n) -> const Aabb& { return tb.nodes_[n].box; });
+               [&tb](int n) -> const Aabb& { return tb.nodes_[n].box; }, shrink);
   } else {
     cross_with(a, tb, b, same, out, [this, shift](int n) { return shifted_box(n, *shift); },
-               [&tb, shift](int n) { return tb.shifted_box(n, *shift); });
+               [&tb, shift](int n) { return tb.shifted_box(n, *shift); }, shrink);
   }
 }
 
 template <class BoxA, class BoxB>
 void AabbTree::cross_with(int a, const AabbTree& tb, int b, bool same, std::vector<std::pair<int, int>>& out,
-                          BoxA&& box_a, BoxB&& box_b) const {
+                          BoxA&& box_a, BoxB&& box_b, double shrink) const {
   // Depth-first, the larger box split first, the two halves in order: an explicit stack that
   // visits (and lists) exactly as the recursion would, with each half's boxes tested before it
   // is pushed. Each step pushes at most two pairs and descends one level in one of the trees
   // (each under 64 levels deep, see query()), so 256 entries are enough.
-  if (!box_a(a).overlaps(box_b(b))) return;
+  if (!box_a(a).overlaps(box_b(b), shrink)) return;
   std::pair<int, int> stack[256];
   int top = 0;
   stack[top++] = {a, b};
@@ -366,11 +368,11 @@ void AabbTree::cross_with(int a, const AabbTree& tb, int b, bool same, std::vect
     const bool split_a = nb.leaf >= 0 || (na.leaf < 0 && (ba.hi - ba.lo).sum() >= (bb.hi - bb.lo).sum());
     // Second half first onto the stack: the first is visited first.
     if (split_a) {
-      if (box_a(na.right).overlaps(bb)) stack[top++] = {na.right, ib};
-      if (box_a(na.left).overlaps(bb)) stack[top++] = {na.left, ib};
+      if (box_a(na.right).overlaps(bb, shrink)) stack[top++] = {na.right, ib};
+      if (box_a(na.left).overlaps(bb, shrink)) stack[top++] = {na.left, ib};
     } else {
-      if (ba.overlaps(box_b(nb.right))) stack[top++] = {ia, nb.right};
-      if (ba.overlaps(box_b(nb.left))) stack[top++] = {ia, nb.left};
+      if (ba.overlaps(box_b(nb.right), shrink)) stack[top++] = {ia, nb.right};
+      if (ba.overlaps(box_b(nb.left), shrink)) stack[top++] = {ia, nb.left};
     }
   }
 }

@@ -29,6 +29,11 @@ struct Aabb {
   bool overlaps(const Aabb& b) const {
     return (lo.array() <= b.hi.array()).all() && (b.lo.array() <= hi.array()).all();
   }
+  // Whether the boxes overlap by at least `shrink` along every axis: boxes of features grown by
+  // margins m_a and m_b pass when the features' boxes are within m_a + m_b - shrink.
+  bool overlaps(const Aabb& b, double shrink) const {
+    return (lo.array() + shrink <= b.hi.array()).all() && (b.lo.array() + shrink <= hi.array()).all();
+  }
   bool contains(const Vec3& p) const { return (lo.array() <= p.array()).all() && (p.array() <= hi.array()).all(); }
   // Squared distance from p to the box (0 inside): no point of the box is nearer.
   double squared_distance(const Vec3& p) const {
@@ -90,15 +95,16 @@ class AabbTree {
   int leaf(int n) const { return nodes_[n].leaf; }  // -1 for inner nodes
   const std::vector<int>& post_order() const { return post_order_; }
 
-  // Every pair (i, j), i < j, of leaves whose boxes overlap, except pairs inside a node n with
-  // (*culled)[n] != 0 when culled is given (self-collision culling, collision/self_culling.h).
-  // threads > 1 splits the traversal into subtree tasks run in parallel and joined in order:
-  // the same list, in the same order, for any thread count.
+  // Every pair (i, j), i < j, of leaves whose boxes overlap (by at least `shrink` along every
+  // axis: Aabb::overlaps), except pairs inside a node n with (*culled)[n] != 0 when culled is
+  // given (self-collision culling, collision/self_culling.h). threads > 1 splits the traversal
+  // into subtree tasks run in parallel and joined in order: the same list, in the same order,
+  // for any thread count.
   void self_pairs(std::vector<std::pair<int, int>>& out, const std::vector<char>* culled = nullptr,
-                  int threads = 1) const;
+                  int threads = 1, double shrink = 0.0) const;
   // The same in the frame moving by `shift` (shifted_box; the tree must be moving()).
   void self_pairs(const Vec3& shift, std::vector<std::pair<int, int>>& out, const std::vector<char>* culled = nullptr,
-                  int threads = 1) const;
+                  int threads = 1, double shrink = 0.0) const;
   // Per leaf, the topmost node above it (or itself) with marked[node] != 0, -1 where none. Two
   // leaves share a marked node exactly when their entries are equal and not -1, so a pair
   // that self_pairs(out, &marked) skips is one whose leaves have the same entry.
@@ -185,11 +191,11 @@ class AabbTree {
   void fit_bottom_up(Fit&& fit, int threads);
   template <class BoxA, class BoxB>
   void cross_with(int a, const AabbTree& tb, int b, bool same, std::vector<std::pair<int, int>>& out, BoxA&& box_a,
-                  BoxB&& box_b) const;
+                  BoxB&& box_b, double shrink) const;
   void self_node(int n, std::vector<std::pair<int, int>>& out, const std::vector<char>* culled,
-                 const Vec3* shift = nullptr) const;
+                 const Vec3* shift = nullptr, double shrink = 0.0) const;
   void cross(int a, const AabbTree& tb, int b, bool same, std::vector<std::pair<int, int>>& out,
-             const Vec3* shift = nullptr) const;
+             const Vec3* shift = nullptr, double shrink = 0.0) const;
   // A piece of the traversal: the self-pairs of node a (self) or the pairs across (a, b).
   struct Task {
     int a, b;
@@ -199,7 +205,8 @@ class AabbTree {
   std::vector<Task> split_tasks(std::vector<Task> tasks, const AabbTree& tb, bool same,
                                 const std::vector<char>* culled, int wanted, const Vec3* shift = nullptr) const;
   void run_tasks(const std::vector<Task>& tasks, const AabbTree& tb, bool same, const std::vector<char>* culled,
-                 int threads, std::vector<std::pair<int, int>>& out, const Vec3* shift = nullptr) const;
+                 int threads, std::vector<std::pair<int, int>>& out, const Vec3* shift = nullptr,
+                 double shrink = 0.0) const;
 
   std::vector<Node> nodes_;
   std::vector<Moving> moving_;  // per node, valid after refit(start, end) until a plain refit
