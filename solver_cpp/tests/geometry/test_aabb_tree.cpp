@@ -299,3 +299,67 @@ TEST(AabbTree, PairedLeavesAreSiblingsAndTraversalsStayExact) {
   one_sided[0] = 1;
   EXPECT_THROW(paired.build(boxes, one_sided), std::invalid_argument);
 }
+
+// Two interleaved pieces (a grid and a copy 3 mm above it, their faces listed alternately): with
+// their components as groups the root splits them apart and every node below holds one piece,
+// so that the self-collision culling can take whole patches; the pairs stay those of the
+// ungrouped tree. A piece below kGroupLeaves is not split off.
+TEST(AabbTree, GroupsGetSubtreesOfTheirOwn) {
+  const int n = 9;
+  const Faces grid = weft::testing::grid_faces(n);
+  const int grid_faces_count = static_cast<int>(grid.rows()), grid_vertices = n * n;
+  Faces faces(2 * grid_faces_count, 3);
+  Positions x(2 * grid_vertices, 3);
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j) {
+      x.row(i * n + j) << 0.01 * i, 0.0, 0.01 * j;
+      x.row(grid_vertices + i * n + j) << 0.01 * i, 0.003, 0.01 * j;
+    }
+  for (int f = 0; f < grid_faces_count; ++f) {
+    faces.row(2 * f) = grid.row(f);
+    faces.row(2 * f + 1) = grid.row(f).array() + grid_vertices;
+  }
+  const std::vector<int> group = face_components(faces, static_cast<int>(x.rows()));
+  for (int f = 0; f < faces.rows(); ++f) EXPECT_EQ(group[f], f % 2 == 0 ? 0 : grid_vertices) << f;
+  std::vector<Aabb> boxes;
+  triangle_boxes(faces, x, x, std::vector<double>(faces.rows(), 0.004), boxes);
+  AabbTree grouped, plain;
+  grouped.build(boxes, pair_faces_across_edges(faces, x), group);
+  plain.build(boxes, pair_faces_across_edges(faces, x));
+  // The groups under every node of a tree, bottom-up.
+  auto groups_under = [&group](const AabbTree& tree) {
+    std::vector<std::set<int>> under(tree.node_count());
+    for (int node : tree.post_order()) {
+      if (tree.leaf(node) >= 0)
+        under[node] = {group[tree.leaf(node)]};
+      else
+        for (int child : {tree.left(node), tree.right(node)}) under[node].insert(under[child].begin(), under[child].end());
+    }
+    return under;
+  };
+  const std::vector<std::set<int>> grouped_under = groups_under(grouped), plain_under = groups_under(plain);
+  EXPECT_EQ(grouped_under[0].size(), 2u);
+  EXPECT_EQ(grouped_under[grouped.left(0)].size(), 1u);
+  EXPECT_EQ(grouped_under[grouped.right(0)].size(), 1u);
+  // Without groups, median splits mix both pieces far down.
+  const auto mixed_plain = std::count_if(plain_under.begin(), plain_under.end(), [](const std::set<int>& s) { return s.size() > 1; });
+  EXPECT_GT(mixed_plain, 10);
+  std::vector<std::pair<int, int>> a, b;
+  grouped.self_pairs(a);
+  plain.self_pairs(b);
+  std::sort(a.begin(), a.end());
+  std::sort(b.begin(), b.end());
+  EXPECT_EQ(a, b);
+  // A piece of a single cell is too small to be split off.
+  std::vector<int> tiny(faces.rows(), 0);
+  tiny[0] = tiny[1] = 7;
+  AabbTree with_tiny;
+  with_tiny.build(boxes, {}, tiny);
+  std::vector<int> leaves_under(with_tiny.node_count(), 0);
+  for (int node : with_tiny.post_order())
+    leaves_under[node] = with_tiny.leaf(node) >= 0
+                             ? 1
+                             : leaves_under[with_tiny.left(node)] + leaves_under[with_tiny.right(node)];
+  EXPECT_EQ(leaves_under[with_tiny.left(0)], leaves_under[with_tiny.right(0)]);  // a median split
+  EXPECT_THROW(grouped.build(boxes, pair_faces_across_edges(faces, x), std::vector<int>(3, 0)), std::invalid_argument);
+}

@@ -31,8 +31,10 @@ ContactDetection::ContactDetection(const Faces& cloth_faces, const Positions& x,
   cloth_own_ = assign_features(cloth_faces_, static_cast<int>(x.rows()));
   triangle_boxes(cloth_faces_, x, x, face_margin_, cloth_boxes_);
   // Faces paired with an edge neighbour (pair_faces_across_edges) are siblings in the tree, so
-  // that its nodes are edge-connected patches, which the self-collision culling needs.
-  cloth_tree_.build(cloth_boxes_, pair_faces_across_edges(cloth_faces_, x));
+  // that its nodes are edge-connected patches, which the self-collision culling needs; and the
+  // pieces (faces connected through shared vertices) get subtrees of their own (AabbTree::build).
+  cloth_tree_.build(cloth_boxes_, pair_faces_across_edges(cloth_faces_, x),
+                    face_components(cloth_faces_, static_cast<int>(x.rows())));
   if (any_self_ && self_culling_) culling_.rebuild(cloth_tree_, cloth_faces_, face_self_);
   bodies_.resize(bodies.size());
   body_shift_.assign(bodies.size(), Vec3::Zero());

@@ -3,10 +3,12 @@
 #include <algorithm>
 #include <array>
 #include <cstdint>
+#include <cstdlib>
 #include <stdexcept>
 #include <vector>
 
 #include "weft/common/ordered_append.h"
+#include "weft/common/union_find.h"
 
 namespace weft {
 
@@ -32,6 +34,17 @@ Aabb triangle_box(const Faces& faces, const Positions& start, const Positions& e
   }
   box.inflate(margin.empty() ? 0.0 : margin[f]);
   return box;
+}
+
+std::vector<int> face_components(const Faces& faces, int vertex_count) {
+  UnionFind pieces(vertex_count);
+  for (int f = 0; f < faces.rows(); ++f) {
+    pieces.unite(faces(f, 0), faces(f, 1));
+    pieces.unite(faces(f, 0), faces(f, 2));
+  }
+  std::vector<int> group(faces.rows());
+  for (int f = 0; f < faces.rows(); ++f) group[f] = pieces.find(faces(f, 0));
+  return group;
 }
 
 std::vector<int> pair_faces_across_edges(const Faces& faces, const Positions& x) {
@@ -85,7 +98,7 @@ std::vector<int> pair_faces_across_edges(const Faces& faces, const Positions& x)
   return partner;
 }
 
-void AabbTree::build(const std::vector<Aabb>& leaves, const std::vector<int>& partner) {
+void AabbTree::build(const std::vector<Aabb>& leaves, const std::vector<int>& partner, const std::vector<int>& group) {
   nodes_.clear();
   post_order_.clear();
   if (leaves.empty()) return;
@@ -95,6 +108,12 @@ void AabbTree::build(const std::vector<Aabb>& leaves, const std::vector<int>& pa
     for (int i = 0; i < count; ++i)
       if (partner[i] >= count || (partner[i] >= 0 && (partner[i] == i || partner[partner[i]] != i)))
         throw std::invalid_argument("AabbTree::build: partners must pair leaves mutually");
+  }
+  if (!group.empty()) {
+    if (static_cast<int>(group.size()) != count) throw std::invalid_argument("AabbTree::build: one group per leaf");
+    for (int i = 0; i < count; ++i)
+      if (!partner.empty() && partner[i] >= 0 && group[partner[i]] != group[i])
+        throw std::invalid_argument("AabbTree::build: partners must share a group");
   }
   // One entry per cluster (a leaf, or a pair under its lower index), at its box's centre.
   std::vector<int> order;
@@ -109,7 +128,7 @@ void AabbTree::build(const std::vector<Aabb>& leaves, const std::vector<int>& pa
     centre[i] = 0.5 * (box.lo + box.hi);
   }
   nodes_.reserve(2 * leaves.size());
-  build_range(order, centre, partner, 0, static_cast<int>(order.size()));
+  build_range(order, centre, partner, group, 0, static_cast<int>(order.size()));
   std::vector<int> height(nodes_.size(), 0);
   by_height_.clear();
   for (int n : post_order_) {
@@ -121,8 +140,33 @@ void AabbTree::build(const std::vector<Aabb>& leaves, const std::vector<int>& pa
   refit(leaves);
 }
 
+int AabbTree::group_split(std::vector<int>& order, const std::vector<int>& group, int begin, int end) {
+  if (group.empty()) return -1;
+  // Leaves per group in the range (a cluster of two counts twice: its partner shares the group).
+  std::vector<std::pair<int, int>> counts;  // (group, entries)
+  for (int i = begin; i < end; ++i) {
+    const int g = group[order[i]];
+    auto it = std::find_if(counts.begin(), counts.end(), [g](const auto& c) { return c.first == g; });
+    if (it == counts.end()) {
+      if (counts.size() >= 64) return -1;  // many small pieces: median splits
+      counts.push_back({g, 1});
+    } else {
+      ++it->second;
+    }
+  }
+  if (counts.size() < 2) return -1;
+  for (const auto& [g, n] : counts)
+    if (n < kGroupLeaves / 2) return -1;  // clusters are pairs: entries, not leaves
+  std::stable_sort(order.begin() + begin, order.begin() + end, [&](int a, int b) { return group[a] < group[b]; });
+  int split = -1;
+  for (int i = begin + 1; i < end; ++i)
+    if (group[order[i]] != group[order[i - 1]] && (split < 0 || std::abs(2 * i - begin - end) < std::abs(2 * split - begin - end)))
+      split = i;
+  return split;
+}
+
 int AabbTree::build_range(std::vector<int>& order, std::vector<Vec3>& centre, const std::vector<int>& partner,
-                           int begin, int end) {
+                           const std::vector<int>& group, int begin, int end) {
   const int index = static_cast<int>(nodes_.size());
   nodes_.push_back({});
   if (end - begin == 1) {
@@ -141,15 +185,19 @@ int AabbTree::build_range(std::vector<int>& order, std::vector<Vec3>& centre, co
     post_order_.push_back(index);
     return index;
   }
-  Aabb bounds;
-  for (int i = begin; i < end; ++i) bounds.expand(centre[order[i]]);
-  int axis;
-  (bounds.hi - bounds.lo).maxCoeff(&axis);
-  const int mid = (begin + end) / 2;
-  std::nth_element(order.begin() + begin, order.begin() + mid, order.begin() + end,
-                   [&](int a, int b) { return centre[a][axis] < centre[b][axis] || (centre[a][axis] == centre[b][axis] && a < b); });
-  const int left = build_range(order, centre, partner, begin, mid);
-  const int right = build_range(order, centre, partner, mid, end);
+  int mid = group_split(order, group, begin, end);
+  if (mid < 0) {
+    Aabb bounds;
+    for (int i = begin; i < end; ++i) bounds.expand(centre[order[i]]);
+    int axis;
+    (bounds.hi - bounds.lo).maxCoeff(&axis);
+    mid = (begin + end) / 2;
+    std::nth_element(order.begin() + begin, order.begin() + mid, order.begin() + end, [&](int a, int b) {
+      return centre[a][axis] < centre[b][axis] || (centre[a][axis] == centre[b][axis] && a < b);
+    });
+  }
+  const int left = build_range(order, centre, partner, group, begin, mid);
+  const int right = build_range(order, centre, partner, group, mid, end);
   nodes_[index].left = left;
   nodes_[index].right = right;
   post_order_.push_back(index);

@@ -65,6 +65,9 @@ Aabb triangle_box(const Faces& faces, const Positions& start, const Positions& e
 // across an edge shared by exactly two faces, trying its edges from the longest at x (a grid
 // cell's diagonal first, so a grid's faces pair into its cells); -1 where none is left.
 std::vector<int> pair_faces_across_edges(const Faces& faces, const Positions& x);
+// Groups for AabbTree::build: per face, its piece (faces connected through shared vertices),
+// numbered by the piece's lowest vertex.
+std::vector<int> face_components(const Faces& faces, int vertex_count);
 
 class AabbTree {
  public:
@@ -73,7 +76,16 @@ class AabbTree {
   // are one cluster, split at the centre of their union and made siblings under a node of their
   // own: the two triangles of a grid cell share one box, so their tied centres fell to either
   // side by index, and nodes were strips of triangles that touch at corners only.
-  void build(const std::vector<Aabb>& leaves, const std::vector<int>& partner = {});
+  // With `group` (per leaf, e.g. the cloth piece of a face), a range of leaves with several
+  // groups of at least kGroupLeaves leaves each is split between groups before any median
+  // split (at the group boundary nearest its middle, groups in id order): pieces that overlap
+  // in space (a skirt over a dress) get subtrees of their own, whose nodes are patches of one
+  // piece that the self-collision culling can skip, where median splits mixed both pieces'
+  // faces down to small nodes. Partners must share a group.
+  void build(const std::vector<Aabb>& leaves, const std::vector<int>& partner = {},
+             const std::vector<int>& group = {});
+  // Leaves a group needs in a range for build() to split the range between groups.
+  static constexpr int kGroupLeaves = 32;
   // Same leaves, new boxes: recompute node boxes bottom-up (with threads, one height at a time,
   // each node from its children only: the same boxes for any thread count).
   void refit(const std::vector<Aabb>& leaves, int threads = 1);
@@ -184,7 +196,10 @@ class AabbTree {
   }
   // Node n's box as a traversal sees it: its own, or shifted_box when shift is given.
   Aabb box_of(int n, const Vec3* shift) const { return shift ? shifted_box(n, *shift) : nodes_[n].box; }
-  int build_range(std::vector<int>& order, std::vector<Vec3>& centre, const std::vector<int>& partner, int begin,
+  // A split of order[begin, end) between groups (see build), or -1 when the range is not split so.
+  static int group_split(std::vector<int>& order, const std::vector<int>& group, int begin, int end);
+  int build_range(std::vector<int>& order, std::vector<Vec3>& centre, const std::vector<int>& partner,
+                  const std::vector<int>& group, int begin,
                   int end);
   // fit(n) for every node, children before parents (with threads, one height at a time).
   template <class Fit>
