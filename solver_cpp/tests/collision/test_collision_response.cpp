@@ -49,6 +49,21 @@ TEST(ProximityResponse, PushesARestingVertexTowardsTheThicknessWithFriction) {
   EXPECT_EQ(ProximityResponse().apply(t.step, t.props, frame), 0);
 }
 
+TEST(ProximityResponse, ATouchingPairKeepsTheNormalItsFirstSweepChose) {
+  // A vertex in the triangle's plane (no distance to take a direction from) sliding into it:
+  // the normal is oriented against its approach once; later sweeps do not flip it back and
+  // forth (each flip a push of twice the target, with friction).
+  VertexOverTriangle t(0.0);
+  t.v.row(0) << 1.0, 0.0, -1.0;
+  const double h = 0.01;
+  t.begin(h);
+  CollisionTelemetry frame;
+  EXPECT_EQ(ProximityResponse().apply(t.step, t.props, frame), 1);
+  const double target = kRepulsionRate * kThickness / h;
+  EXPECT_NEAR(t.v(0, 2), target, 1e-12);
+  EXPECT_NEAR(t.v(0, 0), 1.0 - 0.5 * (target + 1.0), 1e-12);  // one push's friction
+}
+
 TEST(ProximityResponse, SweepsBringStackedLayersToTheirTargets) {
   // Three layers 0.4 thickness apart: a large pinned triangle (0-2) at z = 0, a free triangle
   // (3-5) above it, a free vertex 6 above that falling onto the stack. A sweep in list order

@@ -37,6 +37,10 @@ int ProximityResponse::apply(CollisionStep& step, const ContactProperties& props
   for (std::int64_t k = 0; k < n; ++k)
     if (distance[k] < props.pair_thickness(step.proximity_pairs[k])) within.push_back(k);
   std::vector<char> pushed(within.size(), 0);
+  // A pair's normal is the one its first sweep chose: for features touching (no distance to
+  // take a direction from) it is oriented against the relative velocity, which that sweep's
+  // push reverses.
+  std::vector<Vec3> normal(within.size());
   for (int sweep = 0; sweep < sweeps_; ++sweep) {
     int pushes = 0;
     for (size_t j = 0; j < within.size(); ++j) {
@@ -45,11 +49,14 @@ int ProximityResponse::apply(CollisionStep& step, const ContactProperties& props
       const double th = props.pair_thickness(pair);
       const double d = distance[k];
       const std::array<double, 4>& w = weights[k];
-      std::array<Vec3, 4> s;
-      for (int i = 0; i < 4; ++i) s[i] = step.start_of(pair.point[i], pair.body);
       Vec3 v_rel = Vec3::Zero();
       for (int i = 0; i < 4; ++i) v_rel += w[i] * step.velocity_of(pair.point[i], pair.body);
-      const Vec3 n_contact = contact_normal(s, pair.edge_edge, combine(s, w), d, th, -v_rel);
+      if (sweep == 0) {
+        std::array<Vec3, 4> s;
+        for (int i = 0; i < 4; ++i) s[i] = step.start_of(pair.point[i], pair.body);
+        normal[j] = contact_normal(s, pair.edge_edge, combine(s, w), d, th, -v_rel);
+      }
+      const Vec3& n_contact = normal[j];
       const double vn = n_contact.dot(v_rel);
       const double target = kRepulsionRate * (th - d) / step.h;
       if (vn < target) {
