@@ -6,6 +6,8 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <stdexcept>
+
 #include "bindings.h"
 #include "weft/collision/ccd.h"
 #include "weft/integrator.h"
@@ -171,7 +173,15 @@ void bind_collision(py::module_& m) {
             return count_self_intersections(s.positions(), s.mesh().faces);
           },
           "Exact count of intersecting triangle pairs now (cloth/body and cloth/cloth as switched on; "
-          "without collisions: cloth/cloth over all faces).");
+          "without collisions: cloth/cloth over all faces).")
+      .def(
+          "cloth_tree_quality",
+          [](const Simulation& s) {
+            if (!s.collision_system()) throw std::runtime_error("the simulation has no collision stage");
+            return s.collision_system()->cloth_tree_quality(s.positions());
+          },
+          "(refitted, fresh): the surface-area cost of the collision stage's cloth tree refitted at the current "
+          "positions and of one built afresh there (the tree is built once and refitted).");
 
   const char* vt_doc =
       "Conservative CCD of a vertex against a triangle, all moving linearly over t in [0, 1].\n"

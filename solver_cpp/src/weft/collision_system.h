@@ -16,6 +16,7 @@
 #pragma once
 
 #include <memory>
+#include <utility>
 #include <vector>
 
 #include "weft/bodies/bodies.h"
@@ -75,6 +76,7 @@ class CollisionSystem {
   CollisionTelemetry end_frame(const Positions& x, const std::vector<KinematicBody>& bodies);
   const CollisionSettings& settings() const { return settings_; }
   bool self_collision() const { return detection_.any_self(); }
+  std::pair<double, double> cloth_tree_quality(const Positions& x) const { return detection_.cloth_tree_quality(x); }
   bool gia() const { return gia_; }
   // Whether the next step may start in intersection or in an engaged pinch (GIA is due).
   bool recovering() const { return gia_due_; }

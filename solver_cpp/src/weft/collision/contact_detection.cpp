@@ -89,6 +89,15 @@ void ContactDetection::refit_cloth(const Positions& start, const Positions& end,
   cloth_tree_.refit(cloth_start_boxes_, cloth_end_boxes_, threads_);
 }
 
+std::pair<double, double> ContactDetection::cloth_tree_quality(const Positions& x) const {
+  std::vector<Aabb> boxes;
+  triangle_boxes(cloth_faces_, x, x, face_margin_, boxes);
+  AabbTree refitted = cloth_tree_, fresh;
+  refitted.refit(boxes);
+  fresh.build(boxes, pair_faces_across_edges(cloth_faces_, x), face_components(cloth_faces_, static_cast<int>(x.rows())));
+  return {refitted.surface_cost(), fresh.surface_cost()};
+}
+
 Aabb ContactDetection::shifted_cloth_box(int f, const Vec3& shift) const {
   return swept_box(cloth_start_boxes_[f], cloth_end_boxes_[f], shift);
 }

@@ -129,6 +129,11 @@ class ContactDetection {
                             std::vector<FeaturePair>& out, const Sweep* sweep = nullptr) const;
 
   const Faces& cloth_faces() const { return cloth_faces_; }
+  // The cloth tree's quality at x (boxes grown by the proximity margins): the surface cost of the
+  // tree refitted there and of one built afresh there. The tree is built once, from the shot's
+  // first positions, and refitted ever after (a rebuild would also make a run resumed from a cache
+  // differ from the uninterrupted one); `python -m bench.tree_quality` follows the ratio.
+  std::pair<double, double> cloth_tree_quality(const Positions& x) const;
   const std::vector<char>& face_collide() const { return face_collide_; }
   const std::vector<char>& face_self() const { return face_self_; }
   const std::vector<Aabb>& cloth_boxes() const { return cloth_boxes_; }

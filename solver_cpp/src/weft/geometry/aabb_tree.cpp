@@ -140,6 +140,16 @@ void AabbTree::build(const std::vector<Aabb>& leaves, const std::vector<int>& pa
   refit(leaves);
 }
 
+double AabbTree::surface_cost() const {
+  double cost = 0.0;
+  for (const Node& node : nodes_) {
+    if (node.leaf >= 0) continue;
+    const Vec3 e = node.box.hi - node.box.lo;
+    cost += e.x() * e.y() + e.y() * e.z() + e.z() * e.x();
+  }
+  return cost;
+}
+
 int AabbTree::group_split(std::vector<int>& order, const std::vector<int>& group, int begin, int end) {
   if (group.empty()) return -1;
   // Leaves per group in the range (a cluster of two counts twice: its partner shares the group).

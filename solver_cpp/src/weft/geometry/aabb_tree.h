@@ -101,6 +101,9 @@ class AabbTree {
   bool empty() const { return nodes_.empty(); }
 
   // The hierarchy (node 0 is the root), for per-node data kept outside the tree.
+  // The surface-area cost of the hierarchy: the summed half surface areas of its inner nodes'
+  // boxes (what a traversal's expected work grows with; the measure of build heuristics).
+  double surface_cost() const;
   int node_count() const { return static_cast<int>(nodes_.size()); }
   int left(int n) const { return nodes_[n].left; }
   int right(int n) const { return nodes_[n].right; }
