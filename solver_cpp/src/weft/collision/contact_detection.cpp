@@ -12,6 +12,12 @@
 namespace weft {
 
 namespace {
+// The cloth tree over `boxes` as the collision stage builds it from positions x: faces paired
+// across edges (pair_faces_across_edges), pieces in subtrees of their own (face_components).
+void build_cloth_tree(AabbTree& tree, const Faces& faces, const std::vector<Aabb>& boxes, const Positions& x) {
+  tree.build(boxes, pair_faces_across_edges(faces, x), face_components(faces, static_cast<int>(x.rows())));
+}
+
 bool face_has(const Faces& faces, int f, int v) { return faces(f, 0) == v || faces(f, 1) == v || faces(f, 2) == v; }
 
 }  // namespace
@@ -33,8 +39,7 @@ ContactDetection::ContactDetection(const Faces& cloth_faces, const Positions& x,
   // Faces paired with an edge neighbour (pair_faces_across_edges) are siblings in the tree, so
   // that its nodes are edge-connected patches, which the self-collision culling needs; and the
   // pieces (faces connected through shared vertices) get subtrees of their own (AabbTree::build).
-  cloth_tree_.build(cloth_boxes_, pair_faces_across_edges(cloth_faces_, x),
-                    face_components(cloth_faces_, static_cast<int>(x.rows())));
+  build_cloth_tree(cloth_tree_, cloth_faces_, cloth_boxes_, x);
   if (any_self_ && self_culling_) culling_.rebuild(cloth_tree_, cloth_faces_, face_self_);
   bodies_.resize(bodies.size());
   body_shift_.assign(bodies.size(), Vec3::Zero());
@@ -94,7 +99,7 @@ std::pair<double, double> ContactDetection::cloth_tree_quality(const Positions& 
   triangle_boxes(cloth_faces_, x, x, face_margin_, boxes);
   AabbTree refitted = cloth_tree_, fresh;
   refitted.refit(boxes);
-  fresh.build(boxes, pair_faces_across_edges(cloth_faces_, x), face_components(cloth_faces_, static_cast<int>(x.rows())));
+  build_cloth_tree(fresh, cloth_faces_, boxes, x);
   return {refitted.surface_cost(), fresh.surface_cost()};
 }
 

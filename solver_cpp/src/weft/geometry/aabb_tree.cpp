@@ -152,7 +152,7 @@ double AabbTree::surface_cost() const {
 
 int AabbTree::group_split(std::vector<int>& order, const std::vector<int>& group, int begin, int end) {
   if (group.empty()) return -1;
-  // Leaves per group in the range (a cluster of two counts twice: its partner shares the group).
+  // Entries per group in the range (a cluster of two faces is one entry: partners share a group).
   std::vector<std::pair<int, int>> counts;  // (group, entries)
   for (int i = begin; i < end; ++i) {
     const int g = group[order[i]];
