@@ -70,7 +70,7 @@ void compute_force_elements(const ForceModel& model, const ForceElementLayout& l
 
   // Per element, from the factored forms (forces.h), never forming 12x12 matrices:
   //   rhs = h (f - h K v) = -h grad E + h f_vertex - B v,   B = h^2 K + h D (the blocks).
-#pragma omp parallel for schedule(static) num_threads(threads)
+#pragma omp parallel for schedule(dynamic, 256) num_threads(threads)
   for (int e = 0; e < element_count; ++e) {
     const int count = layout.count[e];
     const auto& vs = layout.vertices[e];
