@@ -198,6 +198,7 @@ void CollisionSystem::redetect(std::vector<int>& hits) {
 void CollisionSystem::respond(const Positions& x, Positions& v, double h, const std::vector<KinematicBody>& bodies,
                               double alpha0, double alpha1) {
   step_.begin(x, v, h);
+  abandoned_ = false;
   body_positions(bodies, alpha0, alpha1);
   constraints_.friction(step_, props_);
   if (pinch_) pinch_->update(step_, detection_, props_.default_thickness, gia_due_, frame_);
@@ -246,6 +247,11 @@ void CollisionSystem::respond(const Positions& x, Positions& v, double h, const 
         detection_.collect_changed(step_, *filter_, frame_);
       ++frame_.iterations;
       if (ccd_.pass(step_, props_, true, nullptr, iteration > 0, frame_) == 0) break;
+      if (abandon_test_ && abandon_test_(step_.x_end)) {
+        abandoned_ = true;
+        step_.end();
+        return;
+      }
     }
     if (iteration == settings_.ccd_iterations) {
       std::vector<int> hits;

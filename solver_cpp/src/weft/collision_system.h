@@ -15,6 +15,7 @@
 // Kinematic bodies and pinned vertices have infinite mass.
 #pragma once
 
+#include <functional>
 #include <memory>
 #include <utility>
 #include <vector>
@@ -69,6 +70,12 @@ class CollisionSystem {
   void rewind_unresolved(int count) { frame_.unresolved = count; }
   // Impact-zone passes allowed per step (0: the settings' budget).
   void limit_zone_passes(int passes) { zone_pass_limit_ = passes; }
+  // A test of the step's end positions after each CCD pass (null: none): once it says so, the
+  // step's response stops there and abandoned() is true until the next respond(). The
+  // integrator passes its halving test (a torn edge), so an attempt it will redo as halves
+  // spends no more passes or impact zones on a result it throws away.
+  void abandon_when(std::function<bool(const Positions&)> test) { abandon_test_ = std::move(test); }
+  bool abandoned() const { return abandoned_; }
   void begin_frame() {
     frame_ = {};
     constraints_.forget();
@@ -118,6 +125,8 @@ class CollisionSystem {
   bool aside_local_ = false;
   std::vector<char> aside_;
   int zone_pass_limit_ = 0;
+  std::function<bool(const Positions&)> abandon_test_;
+  bool abandoned_ = false;
   StrainLimit strain_limit_;  // with settings_.max_strain and the cloth's rest lengths
   ContactConstraints constraints_;
   CollisionStep step_;

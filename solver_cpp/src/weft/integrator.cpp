@@ -203,6 +203,9 @@ void Simulation::substep(double time, double h, double alpha0, double alpha1, in
   // the strain limit to beyond max_step_strain: a stretch that pins or bodies force grows past
   // the limit over many steps (a sheet twisted by its handles), which half steps would not change.
   bool watch_strain = false;
+  const double strain_limit = collisions_ ? collisions_->settings().max_strain : 0.0;
+  const double start_bound = strain_limit > 1.0 ? std::min(strain_limit, settings_.max_step_strain)
+                                                : settings_.max_step_strain;
   if (can_halve) {
     x0 = x_;
     v0 = v_;
@@ -210,20 +213,24 @@ void Simulation::substep(double time, double h, double alpha0, double alpha1, in
     unresolved_before = collisions_->unresolved();
     watch_strain = settings_.max_step_strain > 0.0 && !collisions_->recovering();
     collisions_->limit_zone_passes(std::max(1, collisions_->settings().zone_iterations / 4));
+    if (watch_strain)  // an attempt that tore an edge stops at the CCD pass that did
+      collisions_->abandon_when([&](const Positions& x_end) {
+        return edge_overstretched(mesh_, x0, x_end, start_bound, settings_.max_step_strain);
+      });
   }
   step_alpha_start_ = alpha0;
   const StepTimings t = step(time, h, alpha1);
-  if (can_halve) collisions_->limit_zone_passes(0);
+  if (can_halve) {
+    collisions_->limit_zone_passes(0);
+    collisions_->abandon_when(nullptr);
+  }
   telemetry.build_seconds += t.build;
   telemetry.solve_seconds += t.solve;
   telemetry.setup_seconds += t.setup;
   telemetry.cg_iterations += t.iterations;
   const bool unresolved = can_halve && collisions_->unresolved() > unresolved_before;
-  const double strain_limit = collisions_ ? collisions_->settings().max_strain : 0.0;
-  const double start_bound = strain_limit > 1.0 ? std::min(strain_limit, settings_.max_step_strain)
-                                                : settings_.max_step_strain;
-  if (unresolved ||
-      (watch_strain && edge_overstretched(mesh_, x0, x_, start_bound, settings_.max_step_strain))) {
+  if (unresolved || (watch_strain && (collisions_->abandoned() ||
+                                      edge_overstretched(mesh_, x0, x_, start_bound, settings_.max_step_strain)))) {
     // The fail-safe ran out, or the responses tore an edge: redo the step as two halves from
     // where it started (the attempt's cost stays in the timings; its unresolved pairs do not
     // count, the halves' do).
