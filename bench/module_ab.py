@@ -2,7 +2,8 @@
 
 A change to the solver is measured against the build before it on the same scene, in the same
 hour, runs alternating, each in a process of its own (two builds of `weft._solver` cannot share
-one process). Each run reports wall and CPU seconds per frame and weft's step breakdown; with
+one process). Each run reports wall and CPU seconds per frame, its costliest frame (and that
+over the run's median frame: issue 12's bound on a frame's cost) and weft's step breakdown; with
 `--threads 1` the CPU time is the work itself, which a shared machine's neighbours move far less
 than the wall time. `--save-positions` also says whether the runs' positions are bitwise equal
 (a change meant to leave them alone).
@@ -106,6 +107,8 @@ def child(scene_name: str, module: str, frames: int, threads: int, positions: st
     return {"s_per_frame": float(np.mean(seconds)) if len(seconds) else float("nan"),
             "median_frame": float(np.median(seconds)) if len(seconds) else float("nan"),
             "first_frame": float(seconds[0]) if len(seconds) else float("nan"),
+            "max_frame": float(np.max(seconds)) if len(seconds) else float("nan"),
+            "worst_over_median_frame": float(np.max(seconds) / np.median(seconds)) if len(seconds) else float("nan"),
             "cpu_per_frame": cpu / simulated, "failure": result["failure"],
             **{k: v for k, v in weft_breakdown(result["telemetry"]).items() if k in COLUMNS}}
 
@@ -186,7 +189,7 @@ def main(argv: list[str] | None = None) -> int:
 
     table = Table(title=f"{args.scene}, {args.threads} thread(s), {args.repeat} run(s) per module, alternating "
                         "(per simulated frame; CPU: the process's CPU seconds)")
-    for column in ("module", "s/frame", "CPU s/frame", "build", "solve (setup)", "collision (broad, prox)",
+    for column in ("module", "s/frame", "worst frame (x median)", "CPU s/frame", "build", "solve (setup)", "collision (broad, prox)",
                    "CCD cand", "CG it/substep") + (("positions = first module's",) if bitwise else ()):
         table.add_column(column)
     for name, _ in modules:
@@ -194,7 +197,8 @@ def main(argv: list[str] | None = None) -> int:
         def span(key: str, digits: int = 4) -> str:
             values = [x[key] for x in r]
             return f"{min(values):.{digits}f}" + (f"-{max(values):.{digits}f}" if len(values) > 1 else "")
-        table.add_row(name, span("s_per_frame"), span("cpu_per_frame"), span("build_seconds_per_frame"),
+        table.add_row(name, span("s_per_frame"), f"{span('max_frame')} ({span('worst_over_median_frame', 1)})",
+                      span("cpu_per_frame"), span("build_seconds_per_frame"),
                       f"{span('solve_seconds_per_frame')} ({span('setup_seconds_per_frame')})",
                       f"{span('collision_seconds_per_frame')} ({span('collision_broad_phase_seconds_per_frame')}, "
                       f"{span('collision_proximity_seconds_per_frame')})",

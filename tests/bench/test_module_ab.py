@@ -24,6 +24,8 @@ def test_two_runs_of_one_build_agree_bit_for_bit(tmp_path: Path) -> None:
         (run,) = report["runs"][name]
         assert run["failure"] is None
         assert run["s_per_frame"] > 0.0 and run["cpu_per_frame"] > 0.0
+        assert run["max_frame"] >= run["median_frame"] > 0.0
+        assert run["worst_over_median_frame"] == pytest.approx(run["max_frame"] / run["median_frame"])
         assert run["cg_iterations_per_substep"] > 0.0
     # The same build does the same work: the same counts.
     assert report["runs"]["one"][0]["cg_iterations_per_substep"] == report["runs"]["two"][0]["cg_iterations_per_substep"]
