@@ -189,8 +189,9 @@ def main(argv: list[str] | None = None) -> int:
 
     table = Table(title=f"{args.scene}, {args.threads} thread(s), {args.repeat} run(s) per module, alternating "
                         "(per simulated frame; CPU: the process's CPU seconds)")
-    for column in ("module", "s/frame", "worst frame (x median)", "CPU s/frame", "build", "solve (setup)", "collision (broad, prox)",
-                   "CCD cand", "CG it/substep") + (("positions = first module's",) if bitwise else ()):
+    for column in ("module", "s/frame", "worst frame (x median)", "CPU s/frame", "build", "solve (setup)",
+                   "collision (broad, prox)", "CCD cand", "CG it/substep") + (
+                       ("positions = first module's",) if bitwise else ()):
         table.add_column(column)
     for name, _ in modules:
         r = runs[name]

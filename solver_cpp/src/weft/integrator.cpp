@@ -219,10 +219,20 @@ void Simulation::substep(double time, double h, double alpha0, double alpha1, in
       });
   }
   step_alpha_start_ = alpha0;
-  const StepTimings t = step(time, h, alpha1);
-  if (can_halve) {
-    collisions_->limit_zone_passes(0);
-    collisions_->abandon_when(nullptr);
+  // The attempt's budget and test end with it, also when the step throws (the test refers to
+  // this call's x0): a caller that catches the error may step again.
+  struct AttemptScope {
+    CollisionSystem* collisions;
+    ~AttemptScope() {
+      if (!collisions) return;
+      collisions->limit_zone_passes(0);
+      collisions->abandon_when(nullptr);
+    }
+  };
+  StepTimings t;
+  {
+    const AttemptScope scope{can_halve ? collisions_.get() : nullptr};
+    t = step(time, h, alpha1);
   }
   telemetry.build_seconds += t.build;
   telemetry.solve_seconds += t.solve;
