@@ -379,13 +379,98 @@ def format_tables(result: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
-def main(threads: int = 2, json_path: Path | None = None, quick: bool = False,
+def parse_thread_counts(text: str) -> list[int]:
+    """`--threads`: one count or a comma-separated list of counts (each 1-256) and `all`, the CPUs
+    this process may run on (`weft.simulate.usable_cpus`), e.g. "1,2,all". Repeats are dropped,
+    the order kept. Raises ValueError naming what is wrong."""
+    from weft.simulate import usable_cpus
+
+    counts: list[int] = []
+    for token in (t.strip().lower() for t in text.split(",") if t.strip()):
+        if token == "all":
+            count = usable_cpus()
+        elif token.isdigit() and 1 <= int(token) <= 256:
+            count = int(token)
+        else:
+            raise ValueError(f"{token!r} is not a thread count: give 1-256 or 'all', comma-separated (e.g. 1,2,all)")
+        if count not in counts:
+            counts.append(count)
+    if not counts:
+        raise ValueError("no thread count given (e.g. 2, or 1,2,all)")
+    return counts
+
+
+def thread_rows(runs: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """Per size and thread count: both preconditioners' iterations and solve time, multigrid's
+    speed-up over block Jacobi and its frame time against the first count's (the strong scaling).
+    Iterations must not depend on the thread count (the step is bitwise the same for any)."""
+    rows: list[dict[str, Any]] = []
+    first: dict[str, float] = {}
+    for run in runs:
+        bj = {r["scene"]: r for r in run["records"] if r["path"] == "fast"}
+        for m in (r for r in run["records"] if r["path"] == "fast+multigrid"):
+            b = bj[m["scene"]]
+            first.setdefault(m["scene"], m["sim_s_per_frame"])
+            rows.append({
+                "scene": m["scene"], "vertices": m["vertices"], "threads": run["threads"],
+                "triad_gb_per_s": run["triad_gb_per_s"],
+                "block_jacobi_iterations_per_step": b["cg_iterations_per_step"],
+                "multigrid_iterations_per_step": m["cg_iterations_per_step"],
+                "block_jacobi_solve_s_per_frame": b["solve_s_per_frame"],
+                "multigrid_solve_s_per_frame": m["solve_s_per_frame"],
+                "multigrid_setup_s_per_frame": m["extra"]["multigrid_setup_s_per_frame"],
+                "multigrid_solve_speedup_over_block_jacobi": b["solve_s_per_frame"] / m["solve_s_per_frame"],
+                "multigrid_sim_s_per_frame": m["sim_s_per_frame"],
+                "multigrid_sim_speedup_over_first_count": first[m["scene"]] / m["sim_s_per_frame"],
+            })
+    return rows
+
+
+def format_thread_table(rows: list[dict[str, Any]]) -> str:
+    counts = sorted({r["threads"] for r in rows}, key=[r["threads"] for r in rows].index)
+    lines = [
+        f"Thread counts {', '.join(map(str, counts))}, same sizes (seconds per frame; solve includes the multigrid "
+        f"setup; scaling: multigrid's frame time on {counts[0]} thread(s) over this one's):",
+        "",
+        "| scene | vertices | threads | triad GB/s | BJ it/step | MG it/step | BJ solve | MG setup | MG solve "
+        "| MG over BJ | MG sim/frame | scaling |",
+        "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
+    ]
+    for r in sorted(rows, key=lambda r: (r["vertices"], counts.index(r["threads"]))):
+        lines.append(
+            f"| {r['scene']} | {r['vertices']} | {r['threads']} | {r['triad_gb_per_s']:.1f} "
+            f"| {r['block_jacobi_iterations_per_step']:.0f} | {r['multigrid_iterations_per_step']:.1f} "
+            f"| {r['block_jacobi_solve_s_per_frame']:.3f} | {r['multigrid_setup_s_per_frame']:.3f} "
+            f"| {r['multigrid_solve_s_per_frame']:.3f} | {r['multigrid_solve_speedup_over_block_jacobi']:.2f} "
+            f"| {r['multigrid_sim_s_per_frame']:.3f} | {r['multigrid_sim_speedup_over_first_count']:.2f} |")
+    same = all(
+        len({(r["block_jacobi_iterations_per_step"], r["multigrid_iterations_per_step"])
+             for r in rows if r["scene"] == scene}) == 1
+        for scene in {r["scene"] for r in rows})
+    lines += ["", "CG iterations the same for every thread count: " + ("yes." if same else "NO (the step should be "
+                                                                        "bitwise the same for any thread count).")]
+    return "\n".join(lines)
+
+
+def main(threads: int | list[int] = 2, json_path: Path | None = None, quick: bool = False,
          sides: list[int] | None = None, repeat: int = 1) -> dict[str, Any]:
-    result = run_bench(threads=threads, quick=quick, sides=sides, repeat=repeat)
-    print(format_tables(result))
+    """One thread count: the tables and JSON of one run. Several (`--threads 1,2,all`): one run per
+    count, in order, each printed as it ends, then the thread table; the JSON holds every run."""
+    counts = [threads] if isinstance(threads, int) else threads
+    runs = []
+    for count in counts:
+        result = run_bench(threads=count, quick=quick, sides=sides, repeat=repeat)
+        print(format_tables(result), flush=True)
+        runs.append(result)
+    if len(runs) == 1:
+        combined = runs[0]
+    else:
+        rows = thread_rows(runs)
+        print("\n" + format_thread_table(rows))
+        combined = {"thread_counts": counts, "runs": runs, "thread_table": rows}
     if json_path is not None:
-        json_path.write_text(json.dumps(result, indent=2))
-    return result
+        json_path.write_text(json.dumps(combined, indent=2))
+    return combined
 
 
 if __name__ == "__main__":  # pragma: no cover

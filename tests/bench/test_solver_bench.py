@@ -62,6 +62,42 @@ def test_bench_solver_command_passes_its_options_to_the_bench(monkeypatch, tmp_p
     assert result.exit_code == 2 and "--repeat" in result.output
 
 
+def test_bench_solver_takes_several_thread_counts_and_rejects_bad_ones(monkeypatch) -> None:
+    import bench.solver_bench
+    from weft.simulate import usable_cpus
+
+    calls = []
+    monkeypatch.setattr(bench.solver_bench, "main", lambda **kwargs: calls.append(kwargs))
+    result = CliRunner().invoke(app, ["bench", "solver", "--threads", "1,2,all,2"])
+    assert result.exit_code == 0, result.output
+    expected = [1, 2] + ([usable_cpus()] if usable_cpus() > 2 else [])
+    assert calls[-1]["threads"] == (expected if len(expected) > 1 else expected[0])
+    for bad, named in (("0", "'0'"), ("1,x", "'x'"), ("", "no thread count"), ("257", "'257'")):
+        result = CliRunner().invoke(app, ["bench", "solver", "--threads", bad])
+        assert result.exit_code == 2 and "--threads" in result.output and named in result.output, result.output
+    result = CliRunner().invoke(app, ["bench", "solver", "--sizes", "16,sixteen"])
+    assert result.exit_code == 2 and "--sizes" in result.output and "'sixteen'" in result.output, result.output
+    assert len(calls) == 1
+
+
+def test_a_thread_sweep_tabulates_each_count_with_the_same_iterations(tmp_path: Path, capsys) -> None:
+    from bench.solver_bench import main
+
+    combined = main(threads=[1, 2], sides=[16], json_path=tmp_path / "t.json")
+    assert json.loads((tmp_path / "t.json").read_text()) == json.loads(json.dumps(combined))
+    assert combined["thread_counts"] == [1, 2] and [r["threads"] for r in combined["runs"]] == [1, 2]
+    rows = combined["thread_table"]
+    assert [r["threads"] for r in rows] == [1, 2] and {r["vertices"] for r in rows} == {256}
+    # The step is bitwise the same for any thread count, so are the iteration counts.
+    assert rows[0]["multigrid_iterations_per_step"] == rows[1]["multigrid_iterations_per_step"] > 0
+    assert rows[0]["block_jacobi_iterations_per_step"] == rows[1]["block_jacobi_iterations_per_step"] > 0
+    assert rows[0]["multigrid_sim_speedup_over_first_count"] == 1.0
+    assert rows[1]["multigrid_sim_speedup_over_first_count"] == (
+        rows[0]["multigrid_sim_s_per_frame"] / rows[1]["multigrid_sim_s_per_frame"])
+    out = capsys.readouterr().out
+    assert "| sheet-256 | 256 | 2 |" in out and "CG iterations the same for every thread count: yes." in out
+
+
 def test_bench_ccd_runs_with_zero_false_negatives() -> None:
     result = CliRunner().invoke(app, ["bench", "ccd", "--queries", "1000", "--sizes", "6", "--frames", "3", "--json"])
     assert result.exit_code == 0, result.output

@@ -12,12 +12,18 @@ app = typer.Typer(name="bench", help="Performance benchmarks.", no_args_is_help=
 
 
 def _sizes(text: str) -> list[int]:
-    return [int(s) for s in text.split(",") if s.strip()]
+    """`--sizes`: comma-separated positive integers; a clear usage error otherwise."""
+    tokens = [s.strip() for s in text.split(",") if s.strip()]
+    bad = [t for t in tokens if not t.isdigit() or int(t) < 1]
+    if bad:
+        raise typer.BadParameter(f"{bad[0]!r} is not a positive integer (give e.g. 16,32,64)", param_hint="--sizes")
+    return [int(t) for t in tokens]
 
 
 @app.command("solver")
 def solver(
-    threads: Annotated[int, typer.Option("--threads", min=1, max=256, help="Solver threads")] = 2,
+    threads: Annotated[str, typer.Option("--threads", help="Solver threads: a count, or several and 'all' "
+                                                           "(e.g. 1,2,all: one run each, then a table across them)")] = "2",
     json_path: Annotated[Optional[Path], typer.Option("--json", help="Also write every figure as JSON here")] = None,
     quick: Annotated[bool, typer.Option("--quick", help="Two small sheets only (a smoke test)")] = False,
     sizes: Annotated[str, typer.Option("--sizes", help="Sheet sides instead, e.g. 16,32,64 (one frame each)")] = "",
@@ -27,9 +33,14 @@ def solver(
 ) -> None:
     """Fast (block Jacobi and multigrid) vs reference linear system on 10k-640k vertex sheets
     (the seed's Table 1 shape)."""
-    from bench.solver_bench import main
+    from bench.solver_bench import main, parse_thread_counts
 
-    main(threads=threads, json_path=json_path, quick=quick, sides=_sizes(sizes) or None, repeat=repeat)
+    try:
+        counts = parse_thread_counts(threads)
+    except ValueError as exc:
+        raise typer.BadParameter(str(exc), param_hint="--threads") from None
+    main(threads=counts[0] if len(counts) == 1 else counts, json_path=json_path, quick=quick,
+         sides=_sizes(sizes) or None, repeat=repeat)
 
 
 @app.command("ccd")
