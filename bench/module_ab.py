@@ -49,8 +49,8 @@ def sheet_side(scene: str) -> int | None:
     return int(text) if text.isdigit() and int(text) >= 2 else 0
 COLUMNS = ("build_seconds_per_frame", "solve_seconds_per_frame", "setup_seconds_per_frame",
            "collision_seconds_per_frame", "collision_broad_phase_seconds_per_frame",
-           "collision_proximity_seconds_per_frame", "ccd_candidates_per_frame", "broad_phase_pairs_per_frame",
-           "cg_iterations_per_substep")
+           "collision_proximity_seconds_per_frame", "gia_seconds_per_frame", "ccd_candidates_per_frame",
+           "broad_phase_pairs_per_frame", "cg_iterations_per_substep")
 
 
 def load_module(path: str) -> None:
@@ -190,7 +190,7 @@ def main(argv: list[str] | None = None) -> int:
     table = Table(title=f"{args.scene}, {args.threads} thread(s), {args.repeat} run(s) per module, alternating "
                         "(per simulated frame; CPU: the process's CPU seconds)")
     for column in ("module", "s/frame", "worst frame (x median)", "CPU s/frame", "build", "solve (setup)",
-                   "collision (broad, prox)", "CCD cand", "CG it/substep") + (
+                   "collision (broad, prox)", "GIA", "CCD cand", "CG it/substep") + (
                        ("positions = first module's",) if bitwise else ()):
         table.add_column(column)
     for name, _ in modules:
@@ -202,7 +202,7 @@ def main(argv: list[str] | None = None) -> int:
                       span("cpu_per_frame"), span("build_seconds_per_frame"),
                       f"{span('solve_seconds_per_frame')} ({span('setup_seconds_per_frame')})",
                       f"{span('collision_seconds_per_frame')} ({span('collision_broad_phase_seconds_per_frame')}, "
-                      f"{span('collision_proximity_seconds_per_frame')})",
+                      f"{span('collision_proximity_seconds_per_frame')})", span("gia_seconds_per_frame"),
                       span("ccd_candidates_per_frame", 0), span("cg_iterations_per_substep", 1),
                       *((("yes" if bitwise[name] else "no"),) if bitwise else ()))
     Console(width=200).print(table)

@@ -201,11 +201,20 @@ void CollisionSystem::respond(const Positions& x, Positions& v, double h, const 
   abandoned_ = false;
   body_positions(bodies, alpha0, alpha1);
   constraints_.friction(step_, props_);
-  if (pinch_) pinch_->update(step_, detection_, props_.default_thickness, gia_due_, frame_);
+  if (pinch_)
+    pinch_->update(step_, detection_, props_.default_thickness, gia_due_, frame_,
+                   gia_all_bodies_ ? nullptr : &gia_watch_);
   const int unresolved_before = frame_.unresolved;
   bool tangled = false;
   if (gia_ && gia_due_) {
-    tangled = gia_bodies_->colour(step_, threads_, frame_);
+    const std::vector<char>* only = nullptr;
+    if (!gia_all_bodies_) {
+      gia_only_.assign(detection_.bodies().size(), 0);
+      for (size_t b = 0; b < gia_only_.size(); ++b)
+        gia_only_[b] = gia_watch_[b] || (pinch_ && pinch_->marks_faces(static_cast<int>(b)));
+      only = &gia_only_;
+    }
+    tangled = gia_bodies_->colour(step_, threads_, frame_, only);
     gia_bodies_->recover(step_, props_, pinch_.get(), frame_);
     if (detection_.any_self() && self_due_) {
       // Cloth/cloth GIA: analyse, then pull crossing edges back through.
@@ -278,6 +287,13 @@ void CollisionSystem::respond(const Positions& x, Positions& v, double h, const 
   // Cloth/cloth intersection can only have been created where CCD did not vouch for a
   // cloth/cloth pair: none of them left unresolved, no untangling under way, CCD on.
   self_due_ = untangle_.any() || cloth_pairs_unresolved || !settings_.ccd;
+  gia_all_bodies_ = unresolved_now || !settings_.ccd || untangle_.any();
+  gia_watch_.assign(detection_.bodies().size(), 0);
+  if (gia_)
+    for (size_t b = 0; b < gia_watch_.size(); ++b) {
+      const int body = static_cast<int>(b);
+      gia_watch_[b] = (pinch_ && pinch_->marks_faces(body)) || gia_bodies_->intersects(body);
+    }
   step_.end();
 }
 
@@ -309,7 +325,7 @@ CollisionTelemetry CollisionSystem::end_frame(const Positions& x, const std::vec
     int cloth_cloth = 0;
     frame_.intersections = count_intersections(x, bodies, &cloth_cloth);
     if (cloth_cloth > 0) self_due_ = true;
-    if (frame_.intersections > 0) gia_due_ = true;
+    if (frame_.intersections > 0) gia_due_ = gia_all_bodies_ = true;
     contacts_aside_ = frame_.intersections > 0;  // what a run resumed at this frame sees too
     aside_local_ = false;
     frame_.intersection_seconds += timer.seconds();

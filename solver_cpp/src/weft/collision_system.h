@@ -112,6 +112,16 @@ class CollisionSystem {
   // whose untangling found something or that left cloth/cloth pairs unresolved (or ran without
   // CCD), and after an exact count that found cloth/cloth intersections; at the first step.
   bool self_due_ = true;
+  // Of a due analysis (and of the pinch driver's faces-through test), the bodies the cloth may
+  // have entered: all of them at the first step, after a step that left pairs unresolved, ran
+  // without CCD or left a cloth/cloth tangle, and after a frame whose exact count was not zero;
+  // otherwise (a step whose only exceptions were pinch regions and GIA's membranes) the bodies
+  // CCD did not guard in it: those whose pinch region held cloth faces (no CCD there) or that
+  // its analysis found in intersection (membranes open) - gia_watch_ - and, for the analysis,
+  // those whose pinch region holds cloth now. Every other body's pairs all went through CCD
+  // and were resolved, so the cloth cannot be in it; it answers as analysed with nothing found.
+  bool gia_all_bodies_ = true;
+  std::vector<char> gia_watch_, gia_only_;
   std::unique_ptr<GiaBodyDriver> gia_bodies_;  // with GIA on
   std::unique_ptr<PinchDriver> pinch_;         // with GIA on and two or more collidable bodies
   ClothUntangling untangle_;                   // cloth/cloth GIA (with GIA on and self-collision)

@@ -108,6 +108,33 @@ TEST(GiaBodyDriver, ABodyAwayFromTheClothIsLeftClean) {
   EXPECT_EQ(frame.gia_coloured_vertices, 1);
 }
 
+TEST(GiaBodyDriver, ABodyLeftOutAnswersAsAnalysedWithNothingFound) {
+  // The collision stage leaves out bodies whose pairs CCD guarded over the last step. Such a
+  // body answers as one analysed that found nothing (not as one never looked at, whose filter
+  // takes another detection path); a body away from the cloth stays clean either way.
+  DippedCloth c;
+  c.bodies.push_back(box(Vec3(10, 10, 10), Vec3(11, 11, 11)));
+  const ContactDetection detection(c.faces, c.x, {1}, {0}, {0.002}, c.bodies, {1, 1});
+  GiaBodyDriver driver(detection, 3);
+  CollisionTelemetry frame;
+  CollisionStep step;
+  step.begin(c.x, c.v, 0.01);
+  body_step(step, c.bodies);
+  const std::vector<char> all{1, 1}, none{0, 0};
+  EXPECT_TRUE(driver.colour(step, 1, frame, &all));
+  EXPECT_TRUE(driver.intersects(0));
+  EXPECT_FALSE(driver.intersects(1));
+  CollisionTelemetry left_out;
+  EXPECT_FALSE(driver.colour(step, 1, left_out, &none));
+  EXPECT_FALSE(driver.intersects(0));
+  EXPECT_FALSE(driver.coloured(0, 0));
+  EXPECT_FALSE(driver.cloth_face_contour(0, 0));
+  EXPECT_FALSE(driver.clean(0));
+  EXPECT_TRUE(driver.clean(1));
+  EXPECT_EQ(left_out.gia_coloured_vertices, 0);
+  EXPECT_EQ(left_out.gia_paths, 0);
+}
+
 // The dipped cloth with a second box; the pinch state after one step's update.
 struct TwoBoxes {
   DippedCloth c;
@@ -142,6 +169,21 @@ TEST(PinchDriver, SeparateBoxesAreFree) {
   TwoBoxes t(box(Vec3(2, 2, 2), Vec3(3, 3, 3)));
   EXPECT_EQ(t.pinch.engaged_pairs(), 0);
   EXPECT_FALSE(t.pinch.face_in_region(0, 1));
+  EXPECT_FALSE(t.pinch.marks_faces(1));
+  // The dipped triangle is through the lower box: found in an unclean step, unless the caller
+  // says that box was guarded by CCD (then it is not looked for).
+  EXPECT_TRUE(t.pinch.face_in_region(0, 0));
+  EXPECT_TRUE(t.pinch.marks_faces(0));
+  const std::vector<char> only_second{0, 1};
+  t.pinch.update(t.step, *t.detection, 0.002, true, t.frame, &only_second);
+  EXPECT_FALSE(t.pinch.face_in_region(0, 0));
+  EXPECT_FALSE(t.pinch.marks_faces(0));
+}
+
+TEST(PinchDriver, EngagedBoxesMarkTheFacesInTheirRegion) {
+  TwoBoxes t(box(Vec3(-0.5, -0.5, -0.01), Vec3(0.5, 0.5, 1)));
+  EXPECT_TRUE(t.pinch.marks_faces(0));
+  EXPECT_TRUE(t.pinch.marks_faces(1));
 }
 
 }  // namespace

@@ -56,11 +56,18 @@ void GiaBodyDriver::fit_tree(AabbTree& tree, std::vector<Aabb>& boxes, const Pos
     tree.refit(boxes);
 }
 
+bool GiaBodyDriver::intersects(int body) const {
+  const Body& b = bodies_[body];
+  auto any = [](const std::vector<char>& v) { return std::any_of(v.begin(), v.end(), [](char c) { return c != 0; }); };
+  return any(b.inside) || any(b.face_coloured) || any(b.cloth_face_contour);
+}
+
 void GiaBodyDriver::clear() {
   for (Body& body : bodies_) body.clear();
 }
 
-bool GiaBodyDriver::colour(const CollisionStep& step, int threads, CollisionTelemetry& frame) {
+bool GiaBodyDriver::colour(const CollisionStep& step, int threads, CollisionTelemetry& frame,
+                           const std::vector<char>* only) {
   const Timer timer;
   int coloured_count = 0, paths = 0, body_faces = 0;
   GiaOptions options;
@@ -82,6 +89,13 @@ bool GiaBodyDriver::colour(const CollisionStep& step, int threads, CollisionTele
     fit_tree(state.tree, state.boxes, body_x, faces);
     const AabbTree& body_tree = state.tree;
     if (body_tree.empty() || !body_tree.bounds().overlaps(cloth_box)) continue;
+    if (only != nullptr && !(*only)[b]) {  // known clear of the cloth: what an analysis finds then
+      state.inside.assign(vertex_count_, 0);
+      state.face_coloured.assign(faces.rows(), 0);
+      state.cloth_face_contour.assign(cloth_faces.rows(), 0);
+      state.contour_corner.assign(vertex_count_, 0);
+      continue;
+    }
     // Cloth side: the exact inside test (ray parity). Body side: the parity colouring of the
     // body over all separating paths, so a body segment that passes wholly through the cloth
     // (a patch pushed through a thin bone) is marked even though no cloth vertex is inside.

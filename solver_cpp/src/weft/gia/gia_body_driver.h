@@ -20,9 +20,11 @@ class GiaBodyDriver {
  public:
   GiaBodyDriver(const ContactDetection& detection, int vertex_count);
 
-  // Colours against every closed collidable body at the step's start; returns whether the cloth
-  // is in intersection with one (paths or vertices inside).
-  bool colour(const CollisionStep& step, int threads, CollisionTelemetry& frame);
+  // Colours against every closed collidable body at the step's start, or only against those
+  // `only` marks (the others are left clean: the caller knows the cloth cannot be in them);
+  // returns whether the cloth is in intersection with one (paths or vertices inside).
+  bool colour(const CollisionStep& step, int threads, CollisionTelemetry& frame,
+              const std::vector<char>* only = nullptr);
   // Recovery pushes (and pinch grips) on step.v.
   void recover(CollisionStep& step, const ContactProperties& props, PinchDriver* pinch, CollisionTelemetry& frame);
   void clear();
@@ -40,6 +42,9 @@ class GiaBodyDriver {
   bool contour_corner(int p, int body) const {
     return !bodies_[body].contour_corner.empty() && bodies_[body].contour_corner[p];
   }
+  // Some cloth vertex coloured inside `body`, a body face coloured or pierced, or a cloth face on
+  // the contour: the analysis found `body` in intersection with the cloth.
+  bool intersects(int body) const;
   // Nothing coloured against `body`: the three queries above give their defaults.
   bool clean(int body) const {
     const Body& b = bodies_[body];

@@ -37,7 +37,7 @@ void PinchDriver::grip(int i, const Faces& faces, const Positions& start, const 
 }
 
 void PinchDriver::update(CollisionStep& step, ContactDetection& detection, double default_thickness, bool unclean,
-                         CollisionTelemetry& frame) {
+                         CollisionTelemetry& frame, const std::vector<char>* through) {
   const Timer timer;
   const auto& bodies = detection.bodies();
   const Faces& cloth_faces = detection.cloth_faces();
@@ -89,7 +89,7 @@ void PinchDriver::update(CollisionStep& step, ContactDetection& detection, doubl
   if (unclean || engaged_count_ > 0) {
     for (size_t b = 0; b < bodies.size(); ++b) {
       const ContactDetection::Body& state = bodies[b];
-      if (!state.collide) continue;
+      if (!state.collide || (through != nullptr && !(*through)[b])) continue;
       const Positions& start = step.body_start[b];
       for (const auto& [cf, bf] : detection.body_pairs(static_cast<int>(b), start, start)) {
         if (!detection.face_collide()[cf] || (!faces_[b].empty() && faces_[b][cf])) continue;
@@ -126,6 +126,9 @@ void PinchDriver::update(CollisionStep& step, ContactDetection& detection, doubl
       if (engaged_parts_ > 0) tracker_.mark_vertices(body, *step.x, margin, squeezed_[b], &squeeze);
     }
   }
+  marked_.assign(bodies.size(), 0);
+  for (size_t b = 0; b < bodies.size(); ++b)
+    marked_[b] = std::any_of(faces_[b].begin(), faces_[b].end(), [](char c) { return c != 0; });
   frame.gia_seconds += timer.seconds();
 }
 

@@ -24,14 +24,19 @@ class PinchDriver {
   // detection's cloth tree over the step when a pair is not free or unclean. unclean: the last step may have left cloth in
   // intersection (GIA due); only then, or while a pair is engaged, can a cloth face be through
   // a body, and only then is that looked for.
+  // through: the bodies a cloth face may be through (the others' pairs all went through CCD in
+  // the last step and were resolved); null: every body.
   void update(CollisionStep& step, ContactDetection& detection, double default_thickness, bool unclean,
-              CollisionTelemetry& frame);
+              CollisionTelemetry& frame, const std::vector<char>* through = nullptr);
   // Cloth face in a pinch region of `body` (or through it): no CCD against it.
   bool face_in_region(int cloth_face, int body) const {
     return !faces_.empty() && !faces_[body].empty() && faces_[body][cloth_face];
   }
   // No pinch region of `body`: face_in_region is false for every face.
   bool no_region(int body) const { return faces_.empty() || faces_[body].empty(); }
+  // Some cloth face is in a pinch region of `body` (or through it) in this step: its pairs with
+  // `body` get no CCD. no_region() can be false while none is (a region clear of cloth).
+  bool marks_faces(int body) const { return !marked_.empty() && marked_[body]; }
   // Cloth vertex in the region of an engaged pair of bodies (not parts) with `body`.
   bool held(int p, int body) const { return !held_.empty() && !held_[body].empty() && held_[body][p]; }
   // Cloth vertex p in an engaged region of a pair of parts in which `body` gives way: GIA
@@ -56,6 +61,7 @@ class PinchDriver {
   std::vector<char> engaged_;
   int engaged_count_ = 0, engaged_parts_ = 0;
   std::vector<std::vector<char>> faces_;    // per body, per cloth face (empty: none)
+  std::vector<char> marked_;                // per body: some face of faces_ set
   std::vector<std::vector<char>> held_;     // per body, per cloth vertex (empty: none)
   std::vector<std::vector<char>> squeezed_;  // per body, per cloth vertex (empty: none)
   std::vector<std::vector<char>> gripped_;  // per body, per cloth vertex
