@@ -73,13 +73,26 @@ TEST(GiaBodyDriver, ColoursAVertexInsideAClosedBodyAndPushesItOut) {
   EXPECT_FALSE(driver.coloured(0, 0));
 }
 
-// One colouring of the cloth at its positions (a 10 ms step).
-bool colour_once(GiaBodyDriver& driver, DippedCloth& c, CollisionTelemetry& frame) {
+// One colouring of the cloth at its positions (a 10 ms step), against the bodies `only` marks.
+bool colour_once(GiaBodyDriver& driver, DippedCloth& c, CollisionTelemetry& frame,
+                 const std::vector<char>* only = nullptr) {
   CollisionStep step;
   step.begin(c.x, c.v, 0.01);
   body_step(step, c.bodies);
-  return driver.colour(step, 1, frame);
+  return driver.colour(step, 1, frame, only);
 }
+
+// The dipped cloth against its box and a second box 10 m away, with a driver for both.
+struct WithFarBox {
+  DippedCloth c = with_far_box();
+  ContactDetection detection{c.faces, c.x, {1}, {0}, {0.002}, c.bodies, {1, 1}};
+  GiaBodyDriver driver{detection, 3};
+  static DippedCloth with_far_box() {
+    DippedCloth cloth;
+    cloth.bodies.push_back(box(Vec3(10, 10, 10), Vec3(11, 11, 11)));
+    return cloth;
+  }
+};
 
 TEST(GiaBodyDriver, ColoursNothingOnCleanCloth) {
   DippedCloth c;
@@ -93,14 +106,12 @@ TEST(GiaBodyDriver, ColoursNothingOnCleanCloth) {
 }
 
 TEST(GiaBodyDriver, ABodyAwayFromTheClothIsLeftClean) {
-  // The dipped cloth against its box and a second box 10 m away: the first is coloured as when
-  // alone, the second is skipped (its box misses the cloth's) and answers as clean.
-  DippedCloth c;
-  c.bodies.push_back(box(Vec3(10, 10, 10), Vec3(11, 11, 11)));
-  const ContactDetection detection(c.faces, c.x, {1}, {0}, {0.002}, c.bodies, {1, 1});
-  GiaBodyDriver driver(detection, 3);
+  // The first box is coloured as when alone, the second is skipped (its box misses the
+  // cloth's) and answers as clean.
+  WithFarBox t;
+  GiaBodyDriver& driver = t.driver;
   CollisionTelemetry frame;
-  EXPECT_TRUE(colour_once(driver, c, frame));
+  EXPECT_TRUE(colour_once(driver, t.c, frame));
   EXPECT_TRUE(driver.coloured(0, 0));
   EXPECT_TRUE(driver.cloth_face_contour(0, 0));
   EXPECT_FALSE(driver.clean(0));
@@ -112,20 +123,15 @@ TEST(GiaBodyDriver, ABodyLeftOutAnswersAsAnalysedWithNothingFound) {
   // The collision stage leaves out bodies whose pairs CCD guarded over the last step. Such a
   // body answers as one analysed that found nothing (not as one never looked at, whose filter
   // takes another detection path); a body away from the cloth stays clean either way.
-  DippedCloth c;
-  c.bodies.push_back(box(Vec3(10, 10, 10), Vec3(11, 11, 11)));
-  const ContactDetection detection(c.faces, c.x, {1}, {0}, {0.002}, c.bodies, {1, 1});
-  GiaBodyDriver driver(detection, 3);
-  CollisionTelemetry frame;
-  CollisionStep step;
-  step.begin(c.x, c.v, 0.01);
-  body_step(step, c.bodies);
+  WithFarBox t;
+  GiaBodyDriver& driver = t.driver;
   const std::vector<char> all{1, 1}, none{0, 0};
-  EXPECT_TRUE(driver.colour(step, 1, frame, &all));
+  CollisionTelemetry frame;
+  EXPECT_TRUE(colour_once(driver, t.c, frame, &all));
   EXPECT_TRUE(driver.intersects(0));
   EXPECT_FALSE(driver.intersects(1));
   CollisionTelemetry left_out;
-  EXPECT_FALSE(driver.colour(step, 1, left_out, &none));
+  EXPECT_FALSE(colour_once(driver, t.c, left_out, &none));
   EXPECT_FALSE(driver.intersects(0));
   EXPECT_FALSE(driver.coloured(0, 0));
   EXPECT_FALSE(driver.cloth_face_contour(0, 0));

@@ -21,7 +21,8 @@ class GiaBodyDriver {
   GiaBodyDriver(const ContactDetection& detection, int vertex_count);
 
   // Colours against every closed collidable body at the step's start, or only against those
-  // `only` marks (the others are left clean: the caller knows the cloth cannot be in them);
+  // `only` marks (the caller knows the cloth cannot be in the others: each answers as analysed
+  // with nothing found);
   // returns whether the cloth is in intersection with one (paths or vertices inside).
   bool colour(const CollisionStep& step, int threads, CollisionTelemetry& frame,
               const std::vector<char>* only = nullptr);
