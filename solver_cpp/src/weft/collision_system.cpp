@@ -164,9 +164,12 @@ void CollisionSystem::constrain_contacts(const Positions& x, const Positions& v,
   // recovery and grip decide and CCD is off in places: a constraint holding cloth against a
   // body there (and its friction) could lock a tangle. The impulses take over until the state
   // is clean again.
-  // A pinch between parts of one character (an arm along the torso) squeezes a few vertices of
-  // a garment held against the whole body by its constraints: only those, and the cloth GIA
-  // found inside a body, are set aside (aside_local_).
+  // Within a frame only the cloth at the trouble is set aside (aside_local_, mark_aside): a
+  // pinch between parts of one character (an arm along the torso) squeezes a few vertices of a
+  // garment held against the whole body by its constraints; a skirt's fold left tangled or
+  // unresolved is a patch of a garment that rests on the body elsewhere. After a frame that
+  // ended in intersection, all cloth is set aside for the next frame's first step (what a run
+  // resumed there sees).
   if ((contacts_aside_ || (pinch_ && pinch_->engaged_pairs() > 0)) && !aside_local_) {
     constraints_.forget();
     return;
@@ -175,18 +178,32 @@ void CollisionSystem::constrain_contacts(const Positions& x, const Positions& v,
   constraints_.constrain(x, v, h, step_, detection_, props_, filter, frame_, aside_local_ ? &aside_ : nullptr);
 }
 
-void CollisionSystem::mark_aside() {
+void CollisionSystem::mark_aside(const std::vector<int>& unresolved_vertices) {
   const Faces& faces = detection_.cloth_faces();
   aside_.assign(step_.x->rows(), 0);
   for (int b : detection_.colliding()) {
-    if (pinch_->no_region(b) && (!gia_bodies_ || gia_bodies_->clean(b))) continue;  // nothing to set aside
+    const bool no_region = !pinch_ || pinch_->no_region(b);
+    if (no_region && (!gia_bodies_ || gia_bodies_->clean(b))) continue;  // nothing to set aside
     for (int f = 0; f < faces.rows(); ++f) {
-      const bool pinched = pinch_->face_in_region(f, b);
+      const bool pinched = !no_region && pinch_->face_in_region(f, b);
       bool coloured = false;
       for (int k = 0; k < 3 && gia_bodies_ && !coloured; ++k) coloured = gia_bodies_->coloured(faces(f, k), b);
       if (pinched || coloured)
         for (int k = 0; k < 3; ++k) aside_[faces(f, k)] = 1;
     }
+  }
+  // Cloth/cloth tangles: the faces with a tangled vertex (coloured, or on a crossed face).
+  if (untangle_.any())
+    for (int f = 0; f < faces.rows(); ++f)
+      if (untangle_.tangled_face(f))
+        for (int k = 0; k < 3; ++k) aside_[faces(f, k)] = 1;
+  // Pairs left unresolved: the faces around their cloth vertices.
+  if (!unresolved_vertices.empty()) {
+    std::vector<char> unresolved(aside_.size(), 0);
+    for (int p : unresolved_vertices) unresolved[p] = 1;
+    for (int f = 0; f < faces.rows(); ++f)
+      if (unresolved[faces(f, 0)] || unresolved[faces(f, 1)] || unresolved[faces(f, 2)])
+        for (int k = 0; k < 3; ++k) aside_[faces(f, k)] = 1;
   }
 }
 
@@ -245,6 +262,7 @@ void CollisionSystem::respond(const Positions& x, Positions& v, double h, const 
   }
   step_.pairs.clear();
   bool cloth_pairs_unresolved = false;
+  std::vector<int> unresolved_vertices;  // cloth vertices of the pairs left unresolved
   if (settings_.ccd) {
     int& iteration = step_.ccd_iteration;
     for (iteration = 0; iteration < settings_.ccd_iterations; ++iteration) {
@@ -272,6 +290,9 @@ void CollisionSystem::respond(const Positions& x, Positions& v, double h, const 
                               [this](std::vector<int>& found) { redetect(found); }, frame_);
       cloth_pairs_unresolved =
           std::any_of(hits.begin(), hits.end(), [this](int k) { return step_.pairs[k].body < 0; });
+      for (int k : hits)
+        for (int p : step_.pairs[k].point)
+          if (p >= 0) unresolved_vertices.push_back(p);  // body vertices are numbered below zero
     }
   }
   auto skips_ccd = [](const std::vector<FeaturePair>& list) {
@@ -280,9 +301,8 @@ void CollisionSystem::respond(const Positions& x, Positions& v, double h, const 
   const bool ccd_skipped = !settings_.ccd || skips_ccd(step_.proximity_pairs) || skips_ccd(step_.pairs);
   const bool unresolved_now = frame_.unresolved > unresolved_before;
   contacts_aside_ = tangled || ccd_skipped || unresolved_now;
-  aside_local_ = contacts_aside_ && settings_.local_aside && pinch_ && pinch_->engaged_pairs() > 0 &&
-                 pinch_->engaged_part_pairs() == pinch_->engaged_pairs() && !unresolved_now && !untangle_.any();
-  if (aside_local_) mark_aside();
+  aside_local_ = contacts_aside_ && settings_.local_aside && settings_.ccd;
+  if (aside_local_) mark_aside(unresolved_vertices);
   gia_due_ = contacts_aside_ || (pinch_ && pinch_->engaged_pairs() > 0);
   // Cloth/cloth intersection can only have been created where CCD did not vouch for a
   // cloth/cloth pair: none of them left unresolved, no untangling under way, CCD on.

@@ -94,8 +94,9 @@ class CollisionSystem {
   void body_positions(const std::vector<KinematicBody>& bodies, double alpha0, double alpha1);
   // Detection and CCD against the current velocities (the impact zones' re-detection).
   void redetect(std::vector<int>& hits);
-  // aside_ from the pinch regions and GIA's colouring of the step that just ended.
-  void mark_aside();
+  // aside_ from the pinch regions, GIA's colouring (cloth/body and cloth/cloth) and the pairs
+  // left unresolved (given: their cloth vertices) of the step that just ended.
+  void mark_aside(const std::vector<int>& unresolved_vertices);
 
   CollisionSettings settings_;
   int threads_;
@@ -128,10 +129,11 @@ class CollisionSystem {
   std::unique_ptr<Filter> filter_;
   CcdResponse ccd_;
   bool contacts_aside_ = false;  // contact constraints left to the impulses (constrain_contacts)
-  // contacts_aside_ for the cloth near what set it only: the last step engaged pinches between
-  // parts of one character and nothing else (no body/body pinch, no pair left unresolved, no
-  // cloth/cloth tangle). The cloth in or at those pinch regions and the cloth coloured inside a
-  // body, with its faces' other corners, is set aside (aside_); the rest keeps its constraints.
+  // contacts_aside_ within a frame, for the cloth near what set it only
+  // (local_aside, with CCD on): the cloth faces in or at a pinch region (of parts or of bodies),
+  // with a vertex GIA coloured inside a body or tangled with the cloth, or with a vertex of a pair
+  // the last step left unresolved. Their corners are set aside (aside_); the rest of the cloth
+  // keeps its constraints. False after a frame that ended in intersection: all set aside.
   bool aside_local_ = false;
   std::vector<char> aside_;
   int zone_pass_limit_ = 0;

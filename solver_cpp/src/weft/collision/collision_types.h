@@ -41,9 +41,10 @@ struct CollisionSettings {
   // group; body_pinch.h, part_gap.h): CCD off for cloth where two parts' surfaces face each
   // other closer than two cloth thicknesses. Off only to compare (tests, benchmarks).
   bool part_pinch = true;
-  // While only such pinches (and the cloth GIA finds inside a body) hold the collision stage
-  // off its clean state, the contact constraints stay on for the cloth away from them
-  // (collision_system.h, aside_local_). Off only to compare.
+  // While pinches, cloth in intersection (with a body or itself) or pairs left unresolved hold
+  // the collision stage off its clean state, the contact constraints stay on for the cloth away
+  // from them (collision_system.h, aside_local_); off: all cloth/body contact goes to the
+  // impulses meanwhile. Off only to compare.
   bool local_aside = true;
   // Normal-cone culling of self-collision pairs inside patches that cannot touch themselves
   // (self_culling.h). Off only to compare (tests, benchmarks).
