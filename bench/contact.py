@@ -45,6 +45,8 @@ from bench.contact_metrics import BodyTrack, contact_metrics, edge_rest_lengths 
 # over every scene, weft only, in about 10-15 minutes on 2 loaded cores. The dress scenes run 5 s
 # of the walk: the legs swing from frame 5, and from frame 88 on the arms close on the torso
 # with the dress between them (a pinch between parts of one character, which GIA recovers).
+# The loose skirt's 80 frames take it down the dress and into folds around the legs (from
+# about frame 40), where its frames cost seconds, not tenths.
 DEFAULT_FRAMES = {
     "drape_sphere": 48,
     "drape_sphere_16k": 24,
@@ -55,6 +57,7 @@ DEFAULT_FRAMES = {
     "articulated_dress_merged": 120,
     "walking_dress": 120,
     "layered_dress": 60,
+    "loose_skirt": 80,
 }
 
 

@@ -25,6 +25,7 @@ TINY = {
     "articulated_dress_merged": {"around": 12, "along": 6, "frames": 2},
     "walking_dress": {"around": 12, "along": 6, "frames": 2},
     "layered_dress": {"around": 12, "along": 6, "skirt_around": 14, "skirt_along": 4, "frames": 2},
+    "loose_skirt": {"around": 12, "along": 6, "skirt_around": 14, "skirt_along": 4, "frames": 2},
 }
 
 

@@ -180,7 +180,14 @@ void CollisionSystem::constrain_contacts(const Positions& x, const Positions& v,
 
 void CollisionSystem::mark_aside(const std::vector<int>& unresolved_vertices) {
   const Faces& faces = detection_.cloth_faces();
-  aside_.assign(step_.x->rows(), 0);
+  const auto vertex_count = static_cast<size_t>(step_.x->rows());
+  aside_.assign(vertex_count, 0);
+  // The corners of the cloth faces in a pinch region or with a vertex coloured inside a body.
+  // Around them, the faces with a vertex marked in `around`: faces piercing a body (a rim cutting
+  // the cloth with every vertex outside it), tangled with other cloth, or a cloth vertex of a
+  // pair left unresolved.
+  std::vector<char> around(vertex_count, 0);
+  bool any_around = false;
   for (int b : detection_.colliding()) {
     const bool no_region = !pinch_ || pinch_->no_region(b);
     if (no_region && (!gia_bodies_ || gia_bodies_->clean(b))) continue;  // nothing to set aside
@@ -190,21 +197,23 @@ void CollisionSystem::mark_aside(const std::vector<int>& unresolved_vertices) {
       for (int k = 0; k < 3 && gia_bodies_ && !coloured; ++k) coloured = gia_bodies_->coloured(faces(f, k), b);
       if (pinched || coloured)
         for (int k = 0; k < 3; ++k) aside_[faces(f, k)] = 1;
+      if (gia_bodies_ && gia_bodies_->cloth_face_contour(f, b)) {
+        for (int k = 0; k < 3; ++k) around[faces(f, k)] = 1;
+        any_around = true;
+      }
     }
   }
-  // Cloth/cloth tangles: the faces with a tangled vertex (coloured, or on a crossed face).
   if (untangle_.any())
     for (int f = 0; f < faces.rows(); ++f)
-      if (untangle_.tangled_face(f))
-        for (int k = 0; k < 3; ++k) aside_[faces(f, k)] = 1;
-  // Pairs left unresolved: the faces around their cloth vertices.
-  if (!unresolved_vertices.empty()) {
-    std::vector<char> unresolved(aside_.size(), 0);
-    for (int p : unresolved_vertices) unresolved[p] = 1;
-    for (int f = 0; f < faces.rows(); ++f)
-      if (unresolved[faces(f, 0)] || unresolved[faces(f, 1)] || unresolved[faces(f, 2)])
-        for (int k = 0; k < 3; ++k) aside_[faces(f, k)] = 1;
-  }
+      if (untangle_.tangled_face(f)) {
+        for (int k = 0; k < 3; ++k) around[faces(f, k)] = 1;
+        any_around = true;
+      }
+  for (int p : unresolved_vertices) around[p] = 1;
+  if (!any_around && unresolved_vertices.empty()) return;
+  for (int f = 0; f < faces.rows(); ++f)
+    if (around[faces(f, 0)] || around[faces(f, 1)] || around[faces(f, 2)])
+      for (int k = 0; k < 3; ++k) aside_[faces(f, k)] = 1;
 }
 
 void CollisionSystem::redetect(std::vector<int>& hits) {
@@ -301,7 +310,11 @@ void CollisionSystem::respond(const Positions& x, Positions& v, double h, const 
   const bool ccd_skipped = !settings_.ccd || skips_ccd(step_.proximity_pairs) || skips_ccd(step_.pairs);
   const bool unresolved_now = frame_.unresolved > unresolved_before;
   contacts_aside_ = tangled || ccd_skipped || unresolved_now;
-  aside_local_ = contacts_aside_ && settings_.local_aside && settings_.ccd;
+  // A pinch between two bodies (not parts of one character) still sets all aside: its squeezed
+  // cloth spreads beyond the region's box (the regression box pinch ended in intersection when
+  // the cloth around the region kept its constraints).
+  const bool body_pinch = pinch_ && pinch_->engaged_pairs() > pinch_->engaged_part_pairs();
+  aside_local_ = contacts_aside_ && settings_.local_aside && settings_.ccd && !body_pinch;
   if (aside_local_) mark_aside(unresolved_vertices);
   gia_due_ = contacts_aside_ || (pinch_ && pinch_->engaged_pairs() > 0);
   // Cloth/cloth intersection can only have been created where CCD did not vouch for a

@@ -130,7 +130,7 @@ class CollisionSystem {
   CcdResponse ccd_;
   bool contacts_aside_ = false;  // contact constraints left to the impulses (constrain_contacts)
   // contacts_aside_ within a frame, for the cloth near what set it only
-  // (local_aside, with CCD on): the cloth faces in or at a pinch region (of parts or of bodies),
+  // (local_aside, with CCD on, no body/body pinch engaged): the cloth faces in or at a pinch region,
   // with a vertex GIA coloured inside a body or tangled with the cloth, or with a vertex of a pair
   // the last step left unresolved. Their corners are set aside (aside_); the rest of the cloth
   // keeps its constraints. False after a frame that ended in intersection: all set aside.
