@@ -167,9 +167,9 @@ void CollisionSystem::constrain_contacts(const Positions& x, const Positions& v,
   // Within a frame only the cloth at the trouble is set aside (aside_local_, mark_aside): a
   // pinch between parts of one character (an arm along the torso) squeezes a few vertices of a
   // garment held against the whole body by its constraints; a skirt's fold left tangled or
-  // unresolved is a patch of a garment that rests on the body elsewhere. After a frame that
-  // ended in intersection, all cloth is set aside for the next frame's first step (what a run
-  // resumed there sees).
+  // unresolved is a patch of a garment that rests on the body elsewhere. A pinch between two
+  // bodies sets all cloth aside, and so does a frame that ended in intersection for the next
+  // frame's first step (what a run resumed there sees).
   if ((contacts_aside_ || (pinch_ && pinch_->engaged_pairs() > 0)) && !aside_local_) {
     constraints_.forget();
     return;

@@ -94,8 +94,9 @@ class CollisionSystem {
   void body_positions(const std::vector<KinematicBody>& bodies, double alpha0, double alpha1);
   // Detection and CCD against the current velocities (the impact zones' re-detection).
   void redetect(std::vector<int>& hits);
-  // aside_ from the pinch regions, GIA's colouring (cloth/body and cloth/cloth) and the pairs
-  // left unresolved (given: their cloth vertices) of the step that just ended.
+  // aside_ after the step that just ended: the corners of the cloth faces in a pinch region or
+  // with a vertex GIA coloured inside a body, and of every face around a face piercing a body, a
+  // face tangled with other cloth or a cloth vertex of a pair left unresolved (given).
   void mark_aside(const std::vector<int>& unresolved_vertices);
 
   CollisionSettings settings_;
@@ -129,11 +130,10 @@ class CollisionSystem {
   std::unique_ptr<Filter> filter_;
   CcdResponse ccd_;
   bool contacts_aside_ = false;  // contact constraints left to the impulses (constrain_contacts)
-  // contacts_aside_ within a frame, for the cloth near what set it only
-  // (local_aside, with CCD on, no body/body pinch engaged): the cloth faces in or at a pinch region,
-  // with a vertex GIA coloured inside a body or tangled with the cloth, or with a vertex of a pair
-  // the last step left unresolved. Their corners are set aside (aside_); the rest of the cloth
-  // keeps its constraints. False after a frame that ended in intersection: all set aside.
+  // contacts_aside_ within a frame, for the cloth near what set it only (local_aside, with CCD
+  // on, no body/body pinch engaged): mark_aside's faces. Their corners are set aside (aside_);
+  // the rest of the cloth keeps its constraints. False after a frame that ended in
+  // intersection: all set aside.
   bool aside_local_ = false;
   std::vector<char> aside_;
   int zone_pass_limit_ = 0;
