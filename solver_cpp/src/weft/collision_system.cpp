@@ -209,8 +209,11 @@ void CollisionSystem::mark_aside(const std::vector<int>& unresolved_vertices) {
         for (int k = 0; k < 3; ++k) around[faces(f, k)] = 1;
         any_around = true;
       }
-  for (int p : unresolved_vertices) around[p] = 1;
-  if (!any_around && unresolved_vertices.empty()) return;
+  for (int p : unresolved_vertices) {
+    around[p] = 1;
+    any_around = true;
+  }
+  if (!any_around) return;
   for (int f = 0; f < faces.rows(); ++f)
     if (around[faces(f, 0)] || around[faces(f, 1)] || around[faces(f, 2)])
       for (int k = 0; k < 3; ++k) aside_[faces(f, k)] = 1;
