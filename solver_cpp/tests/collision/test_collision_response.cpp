@@ -123,6 +123,37 @@ TEST(CcdResponse, StopsAVertexFallingThroughATriangle) {
   EXPECT_EQ(ccd.pass(t.step, t.props, false, nullptr, false, frame), 0);
 }
 
+// Detection only (the impact zones' re-detection): a pair that starts within CCD's minimum
+// separation is a hit when it crosses within the step and not when it only stays close (a
+// squeezed pair that a zone's motion keeps as close as it was). Passes with impulses still
+// push it apart.
+TEST(CcdResponse, DetectionOnlyReportsAPairWithinTheSeparationOnlyWhenItCrosses) {
+  const double start = 0.5 * kCcdSeparationFraction * kThickness;  // within the separation
+  const double h = 0.01;
+  CollisionTelemetry frame;
+  const CcdResponse ccd(1);
+  auto detected = [&](double vertex_speed, double triangle_speed) {
+    VertexOverTriangle t(start, true);
+    t.v.col(2) << vertex_speed, triangle_speed, triangle_speed, triangle_speed;
+    t.begin(h);
+    std::vector<int> hits;
+    ccd.pass(t.step, t.props, false, &hits, false, frame);
+    return hits.size();
+  };
+  EXPECT_EQ(detected(0.0, 0.0), 0u);                  // at rest
+  EXPECT_EQ(detected(-1.0, -1.0), 0u);                // carried together
+  EXPECT_EQ(detected(-0.4 * start / h, 0.0), 0u);     // closer, never crossing
+  EXPECT_EQ(detected(-2.0 * start / h, 0.0), 1u);     // through the triangle within the step
+  EXPECT_EQ(detected(0.0, 2.0 * start / h), 1u);      // the triangle rising through the vertex
+  // With impulses the approaching close pair is pushed apart: its relative normal velocity
+  // becomes positive.
+  VertexOverTriangle t(start, true);
+  t.v(0, 2) = -0.4 * start / h;
+  t.begin(h);
+  EXPECT_EQ(ccd.pass(t.step, t.props, true, nullptr, false, frame), 1);
+  EXPECT_GT(t.v(0, 2), t.v(1, 2));
+}
+
 TEST(ImpactZones, MakeAConvergingPairCollisionFree) {
   VertexOverTriangle t(0.5, true);
   t.v.row(0) << 0.0, 0.0, -100.0;

@@ -85,11 +85,30 @@ int CcdResponse::pass(CollisionStep& step, const ContactProperties& props, bool 
   incremental = false;  // the serial pass re-tests hits with the velocities of the moment
   frame.ccd_seconds += timer.seconds();
   timer.restart();
+  // Where the pair's features actually cross (no minimum separation; a tenth of it as the
+  // tolerance, so features that come that close count as crossing).
+  auto crossing = [&](const FeaturePair& pair) {
+    std::array<Vec3, 4> s, e;
+    for (int i = 0; i < 4; ++i) {
+      s[i] = step.start_of(pair.point[i], pair.body);
+      e[i] = step.end_of(pair.point[i], pair.body);
+    }
+    CcdOptions options;
+    options.absolute_tolerance = 0.1 * kCcdSeparationFraction * props.pair_thickness(pair);
+    options.max_boxes = 2000;
+    return pair.edge_edge ? edge_edge_ccd(s, e, options) : vertex_triangle_ccd(s, e, options);
+  };
   int found = 0;
   for (int k = 0; k < count; ++k) {
     if (!hit[k]) continue;
     const FeaturePair& pair = step.pairs[k];
     double t = toi[k];
+    // Detection only (what a motion, an impact zone's, leaves colliding): a pair already within
+    // the minimum separation at the step's start (reported at time 0) that never crosses is no
+    // collision of the motion. Rigid and affine zone motions keep such pairs as close as they
+    // were (the squeezed layers of a bunched skirt); counting them made every zone that held
+    // one "unresolved" and its step was halved in vain.
+    if (!apply && t == 0.0 && !crossing(pair).hit) continue;
     // Earlier impulses of this pass may have changed the pair: then it is tested again with the
     // velocities of the moment. A pair none of whose points they moved keeps its answer.
     const bool moved_in_pass = std::any_of(pair.point.begin(), pair.point.end(),
@@ -131,10 +150,7 @@ int CcdResponse::pass(CollisionStep& step, const ContactProperties& props, bool 
     // Linearised at the reported time (the pair was within the minimum separation already, or
     // the time is a coarse lower bound) the pair separates, yet it collides: it turns into
     // contact later in the step. Then the impulse is taken where the features actually meet.
-    CcdOptions crossing;
-    crossing.absolute_tolerance = 0.1 * kCcdSeparationFraction * th;
-    crossing.max_boxes = 2000;
-    const CcdResult r = pair.edge_edge ? edge_edge_ccd(s, e, crossing) : vertex_triangle_ccd(s, e, crossing);
+    const CcdResult r = crossing(pair);
     // A pair that starts within the minimum separation, separates and never crosses is left
     // as it is (every test of it reports the start).
     if (!r.hit || (r.toi > t && impulse_at(r.toi))) continue;

@@ -27,8 +27,9 @@ class CcdResponse {
   // separates there, yet turns into contact later) gets its impulse where the features cross;
   // failing that its points are marked changed, so the next pass tests it again. Incremental: only pairs with a
   // cloth vertex whose velocity changed since the last pass (step.changed; the others keep
-  // their trajectories, so their earlier "no hit" stands). Hit pair indices go to `hits`.
-  // Returns the number of hits.
+  // their trajectories, so their earlier "no hit" stands). Without apply (detection only, the
+  // impact zones' re-detection) a pair that starts within the minimum separation and never
+  // crosses is not a hit. Hit pair indices go to `hits`. Returns the number of hits.
   int pass(CollisionStep& step, const ContactProperties& props, bool apply, std::vector<int>* hits, bool incremental,
            CollisionTelemetry& frame) const;
 
