@@ -78,7 +78,7 @@ class CollisionSystem::Filter : public ContactFilter {
   }
   bool pinch_region(int body) const override { return s_.pinch_ && !s_.pinch_->no_region(body); }
   bool skips_nothing(int body) const override {
-    if (body < 0) return !s_.untangle_.any();
+    if (body < 0) return !s_.untangle_.any() && !s_.untangle_.interlocked();
     return (!s_.gia_bodies_ || s_.gia_bodies_->clean(body)) && (!s_.pinch_ || s_.pinch_->no_region(body));
   }
 
@@ -322,7 +322,7 @@ void CollisionSystem::respond(const Positions& x, Positions& v, double h, const 
   gia_due_ = contacts_aside_ || (pinch_ && pinch_->engaged_pairs() > 0);
   // Cloth/cloth intersection can only have been created where CCD did not vouch for a
   // cloth/cloth pair: none of them left unresolved, no untangling under way, CCD on.
-  self_due_ = untangle_.any() || cloth_pairs_unresolved || !settings_.ccd;
+  self_due_ = untangle_.any() || untangle_.interlocked() || cloth_pairs_unresolved || !settings_.ccd;
   gia_all_bodies_ = unresolved_now || !settings_.ccd || untangle_.any();
   gia_watch_.assign(detection_.bodies().size(), 0);
   if (gia_)

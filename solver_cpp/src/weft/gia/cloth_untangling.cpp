@@ -27,6 +27,7 @@ ClothUntangling::ClothUntangling(const Faces& cloth_faces, const std::vector<cha
   tangled_vertex_.assign(vertex_count_, 0);
   tangled_face_.assign(face_count, 0);
   patch_.assign(vertex_count_, -1);
+  interlock_face_.assign(face_count, 0);
 }
 
 // BWK's per-path colouring, per connected component: for each path, the edges it crosses an odd
@@ -75,8 +76,65 @@ void ClothUntangling::colour(const GiaResult& r, const Positions& x) {
   }
 }
 
+// Per path whose crossing edges have no coloured end: every pair of its edges that cross a
+// face around each other (Interlock), each pair once.
+void ClothUntangling::find_interlocks(const GiaResult& r) {
+  auto has_edge = [&](int tri, int e) {  // face `tri` (a faces_ row) has both ends of edge e
+    int ends = 0;
+    for (int c = 0; c < 3; ++c) ends += faces_(tri, c) == topo_.edges(e, 0) || faces_(tri, c) == topo_.edges(e, 1);
+    return ends == 2;
+  };
+  auto around = [&](int e) {
+    std::array<int, 2> faces = {-1, -1};
+    for (int k = topo_.edge_face_offset[e], slot = 0; k < topo_.edge_face_offset[e + 1] && slot < 2; ++k, ++slot)
+      faces[slot] = face_id_[topo_.edge_faces[k]];
+    return faces;
+  };
+  for (const GiaPath& path : r.paths) {
+    bool free_path = true;
+    for (int k : path.hits) {
+      const int e = r.hits[k].edge;
+      free_path = free_path && !colour_[topo_.edges(e, 0)] && !colour_[topo_.edges(e, 1)];
+    }
+    if (!free_path) continue;
+    const size_t first = interlocks_.size();
+    for (int k1 : path.hits) {
+      const int e = r.hits[k1].edge;
+      for (int k2 : path.hits) {
+        const int f = r.hits[k2].edge;
+        if (e >= f || !has_edge(r.hits[k1].tri, f) || !has_edge(r.hits[k2].tri, e)) continue;
+        const std::array<int, 2> a = {topo_.edges(e, 0), topo_.edges(e, 1)}, b = {topo_.edges(f, 0), topo_.edges(f, 1)};
+        if (std::any_of(interlocks_.begin() + static_cast<std::ptrdiff_t>(first), interlocks_.end(),
+                        [&](const Interlock& lock) { return lock.a == a && lock.b == b; }))
+          continue;
+        Interlock lock;
+        lock.a = a;
+        lock.b = b;
+        int slot = 0;
+        for (int k : path.hits)
+          if (r.hits[k].edge == e && has_edge(r.hits[k].tri, f) && slot < 2) lock.b_faces[slot++] = face_id_[r.hits[k].tri];
+        lock.a_around = around(e);
+        lock.b_around = around(f);
+        interlocks_.push_back(lock);
+      }
+    }
+  }
+  for (const Interlock& lock : interlocks_)
+    for (int f : {lock.a_around[0], lock.a_around[1], lock.b_around[0], lock.b_around[1]})
+      if (f >= 0) interlock_face_[f] = 1;
+}
+
+bool ClothUntangling::interlock_pair(int a, int b) const {
+  auto in = [](int f, const std::array<int, 2>& faces) { return f == faces[0] || f == faces[1]; };
+  return std::any_of(interlocks_.begin(), interlocks_.end(), [&](const Interlock& lock) {
+    return (in(a, lock.a_around) && in(b, lock.b_around)) || (in(b, lock.a_around) && in(a, lock.b_around));
+  });
+}
+
 double ClothUntangling::analyse(const Positions& x, int threads) {
   hits_.clear();
+  interlocks_.clear();
+  std::fill(interlock_face_.begin(), interlock_face_.end(), 0);
   coloured_count_ = 0;
   path_count_ = 0;
   std::fill(colour_.begin(), colour_.end(), 0);
@@ -125,7 +183,49 @@ double ClothUntangling::analyse(const Positions& x, int threads) {
     if (colour_[a] == colour_[b]) continue;  // no coloured side to pull back (e.g. a slit's edges)
     hits_.push_back({colour_[a] ? a : b, colour_[a] ? b : a, face_id_[h.tri]});
   }
+  find_interlocks(r);
   return r.seconds;
+}
+
+int ClothUntangling::push_interlocks(const Positions& x, Positions& v, double h, const std::vector<double>& inverse_mass,
+                                     const std::vector<double>& vertex_thickness) const {
+  int corrected = 0;
+  for (const Interlock& lock : interlocks_) {
+    const Vec3 a0 = row3(x, lock.a[0]), a1 = row3(x, lock.a[1]), b0 = row3(x, lock.b[0]), b1 = row3(x, lock.b[1]);
+    // The side of b's surface that a's ends are on: a crosses each face around b it crosses
+    // once, between its closest approach to b (under b) and the end beyond that face.
+    double s = 0.0, t = 0.0;
+    segment_segment_distance(a0, a1, b0, b1, s, t);
+    Vec3 up = Vec3::Zero();
+    for (int f : lock.b_faces) {
+      if (f < 0) continue;
+      const Vec3 corner = row3(x, cloth_faces_(f, 0));
+      const Vec3 n = (row3(x, cloth_faces_(f, 1)) - corner).cross(row3(x, cloth_faces_(f, 2)) - corner);
+      const double d0 = n.dot(a0 - corner), d1 = n.dot(a1 - corner);
+      if (d0 == d1 || !(n.squaredNorm() > 0.0)) continue;
+      const double at = d0 / (d0 - d1);  // where a crosses the face's plane
+      const double beyond = at < s ? d0 : d1;
+      up += (beyond >= 0.0 ? 1.0 : -1.0) * n.normalized();
+    }
+    const double up_norm = up.norm();
+    if (!(up_norm > 0.0)) continue;
+    up /= up_norm;
+    const double depth = up.dot((b0 + t * (b1 - b0)) - (a0 + s * (a1 - a0)));  // a below b by this much
+    const std::array<int, 4> point = {lock.a[0], lock.a[1], lock.b[0], lock.b[1]};
+    const std::array<double, 4> weight = {1.0 - s, s, -(1.0 - t), -t};
+    double th = 0.0, vn = 0.0, inverse = 0.0;
+    for (int k = 0; k < 4; ++k) {
+      th = std::max(th, vertex_thickness[point[k]]);
+      vn += weight[k] * up.dot(row3(v, point[k]));
+      inverse += weight[k] * weight[k] * inverse_mass[point[k]];
+    }
+    const double target = (std::max(depth, 0.0) + th) / h;
+    if (vn >= target || !(inverse > 0.0)) continue;
+    const double impulse = (target - vn) / inverse;
+    for (int k = 0; k < 4; ++k) v.row(point[k]) += (weight[k] * inverse_mass[point[k]] * impulse * up).transpose();
+    ++corrected;
+  }
+  return corrected;
 }
 
 int ClothUntangling::pull(const Positions& x, Positions& v, double h, const std::vector<double>& inverse_mass,
@@ -183,7 +283,7 @@ int ClothUntangling::pull(const Positions& x, Positions& v, double h, const std:
     for (int i = 0; i < vertex_count_; ++i)
       if (component_[i] == recoil_component[k] && !colour_[i] && inverse_mass[i] > 0.0) v.row(i) += dv.transpose();
   }
-  return corrected;
+  return corrected + push_interlocks(x, v, h, inverse_mass, vertex_thickness);
 }
 
 }  // namespace weft

@@ -8,11 +8,15 @@
 //     intersection still cannot enter;
 //   - pulls each crossing edge back through the triangle it crosses (pull): the edge's
 //     coloured endpoint gets a velocity, relative to the triangle, that takes it across the
-//     triangle's plane to its uncoloured endpoint's side (plus the thickness) within the step.
+//     triangle's plane to its uncoloured endpoint's side (plus the thickness) within the step;
+//   - pushes interlocked edge pairs apart (an edge through both faces around another edge,
+//     which goes through both faces around the first: a small loop around no vertex, which
+//     the colouring cannot mark), each edge towards the side its own ends are on.
 // Nothing here depends on the thread count: the analysis is deterministic, the pull is serial
 // in hit order. See docs/intersection-analysis.md, "In the step: cloth/cloth untangling".
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <vector>
 
@@ -26,6 +30,17 @@ struct UntangleHit {
   int coloured = -1;  // the edge's endpoint in intersection
   int free = -1;      // its other endpoint (not coloured)
   int face = -1;      // cloth face id (index into the full cloth face list)
+};
+
+// Two edges through each other (an "X" between two layers, or a hem folded tightly onto the
+// cloth above it): edge `a` crosses a cloth face around edge `b` (`b_faces`: the one or two it
+// crosses), and `b` crosses a face around `a`. Their intersection path has no coloured side:
+// it closes around no vertex, or ends on the boundary or at a shared vertex without splitting
+// anything, so the colouring has nothing to mark and no endpoint to pull.
+struct Interlock {
+  std::array<int, 2> a = {-1, -1}, b = {-1, -1};  // the edges' vertices
+  std::array<int, 2> b_faces = {-1, -1};          // cloth faces around b that a crosses (-1: none)
+  std::array<int, 2> a_around = {-1, -1}, b_around = {-1, -1};  // cloth faces around each edge
 };
 
 class ClothUntangling {
@@ -45,14 +60,21 @@ class ClothUntangling {
   // already moving that fast is left alone. The recoil (opposite momentum) is spread over the
   // free, unpinned vertices of the triangle's connected component by mass, after all hits, so
   // momentum is conserved and no single triangle is kicked through its neighbours. Returns the
-  // number of hits corrected.
+  // number of hits corrected. Then each interlocked pair of edges gets equal and opposite
+  // impulses at its closest points along the normal of b's faces, so that a's crossing point
+  // ends the step on the side of b's surface that a's own ends are on, the thickness beyond
+  // b's (and b on the other side); those corrected are counted too.
   int pull(const Positions& x, Positions& v, double h, const std::vector<double>& inverse_mass,
            const std::vector<double>& vertex_thickness) const;
 
   bool any() const { return !hits_.empty() || coloured_count_ > 0; }
+  // Interlocked edge pairs to push apart (Interlock): the analysis is due again next step.
+  bool interlocked() const { return !interlocks_.empty(); }
   // Forget the last analysis (a step that skips it: nothing tangled, nothing skipped or pulled).
   void clear() {
     hits_.clear();
+    interlocks_.clear();
+    std::fill(interlock_face_.begin(), interlock_face_.end(), 0);
     coloured_count_ = 0;
     path_count_ = 0;
   }
@@ -66,11 +88,16 @@ class ClothUntangling {
   // the tangled faces): the two sides of an intersection, e.g. a flap's tip and the layer it
   // went through. Pairs within one patch (a coloured region against itself) and pairs with an
   // untangled face are kept, so clean cloth still cannot enter, nor a region fold into itself.
+  // The faces around an interlocked pair of edges are skipped against each other too (only
+  // those: the layers around them stay apart), so the edges may pass back.
   bool skip_triangle_pair(int a, int b) const {
-    return any() && tangled_face_[a] && tangled_face_[b] && patch_[cloth_faces_(a, 0)] != patch_[cloth_faces_(b, 0)];
+    if (any() && tangled_face_[a] && tangled_face_[b] && patch_[cloth_faces_(a, 0)] != patch_[cloth_faces_(b, 0)])
+      return true;
+    return interlocked() && interlock_face_[a] && interlock_face_[b] && interlock_pair(a, b);
   }
 
   const std::vector<UntangleHit>& hits() const { return hits_; }
+  const std::vector<Interlock>& interlocks() const { return interlocks_; }
   const std::vector<char>& colour() const { return colour_; }
   const std::vector<int>& patch() const { return patch_; }
   int coloured_count() const { return coloured_count_; }
@@ -88,7 +115,13 @@ class ClothUntangling {
   std::vector<char> colour_, tangled_vertex_, tangled_face_;
   std::vector<int> patch_;  // tangled patch of each vertex of a tangled face (its lowest vertex id), else -1
   void colour(const GiaResult& r, const Positions& x);
+  void find_interlocks(const GiaResult& r);
+  bool interlock_pair(int a, int b) const;
+  int push_interlocks(const Positions& x, Positions& v, double h, const std::vector<double>& inverse_mass,
+                      const std::vector<double>& vertex_thickness) const;
   std::vector<UntangleHit> hits_;
+  std::vector<Interlock> interlocks_;
+  std::vector<char> interlock_face_;  // per cloth face: around an interlocked edge
   int coloured_count_ = 0, path_count_ = 0;
 };
 
