@@ -9,9 +9,9 @@
 //   - pulls each crossing edge back through the triangle it crosses (pull): the edge's
 //     coloured endpoint gets a velocity, relative to the triangle, that takes it across the
 //     triangle's plane to its uncoloured endpoint's side (plus the thickness) within the step;
-//   - pushes interlocked edge pairs apart (an edge through both faces around another edge,
-//     which goes through both faces around the first: a small loop around no vertex, which
-//     the colouring cannot mark), each edge towards the side its own ends are on.
+//   - pushes interlocked edge pairs apart (an edge through a face around another edge, which
+//     goes through a face around the first: an intersection that splits nothing, so the
+//     colouring cannot mark it), each edge towards the side its own ends are on.
 // Nothing here depends on the thread count: the analysis is deterministic, the pull is serial
 // in hit order. See docs/intersection-analysis.md, "In the step: cloth/cloth untangling".
 #pragma once
