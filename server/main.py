@@ -16,6 +16,8 @@ from typing import Any
 import redis
 import redis.asyncio as aioredis
 from fastapi import FastAPI
+from redis.asyncio.retry import Retry
+from redis.backoff import ExponentialBackoff
 
 from api_schemas import Shot
 from server.errors import install_error_handlers
@@ -28,16 +30,24 @@ from weft import jobstore
 from weft.jobstore import ServiceSettings
 
 
+def redis_pool(url: str, max_connections: int) -> aioredis.BlockingConnectionPool:
+    """A pool whose commands retry a lost connection a few times (about 0.5 s in all) before the
+    error reaches the caller as a 503: after Redis restarts, every idle connection in the pool is
+    stale, and without a retry each of them would fail one request before it reconnects."""
+    return aioredis.BlockingConnectionPool.from_url(
+        url, decode_responses=True, max_connections=max_connections, timeout=10,
+        retry=Retry(ExponentialBackoff(cap=0.25, base=0.02), retries=4),
+        retry_on_error=[redis.ConnectionError, redis.TimeoutError])
+
+
 @asynccontextmanager
 async def lifespan(app: FastAPI) -> AsyncIterator[None]:
     settings: ServiceSettings = app.state.settings
     # Two pools: requests wait (up to 10 s) for one of max_redis_connections rather than fail;
     # event streams, which hold a connection while they wait for events, have their own, as
     # large as the number of streams StreamLimits lets open.
-    app.state.redis = aioredis.Redis(connection_pool=aioredis.BlockingConnectionPool.from_url(
-        settings.redis_url, decode_responses=True, max_connections=settings.max_redis_connections, timeout=10))
-    app.state.stream_redis = aioredis.Redis(connection_pool=aioredis.BlockingConnectionPool.from_url(
-        settings.redis_url, decode_responses=True, max_connections=settings.max_streams, timeout=10))
+    app.state.redis = aioredis.Redis(connection_pool=redis_pool(settings.redis_url, settings.max_redis_connections))
+    app.state.stream_redis = aioredis.Redis(connection_pool=redis_pool(settings.redis_url, settings.max_streams))
     app.state.stream_limits = StreamLimits(settings.max_streams_per_key, settings.max_streams)
     app.state.validator = BoundedValidator(settings.validation_processes, settings.validation_memory_bytes,
                                            settings.validation_seconds)

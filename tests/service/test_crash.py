@@ -7,6 +7,7 @@ import signal
 import subprocess
 import sys
 import threading
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import h5py
@@ -107,11 +108,19 @@ def test_redis_restart_loses_no_queued_job(own_stack: Stack) -> None:
         ids = [c.post("/v1/jobs", json=small_shot(f"queued{i}", frames=5)).json()["id"] for i in range(4)]
         cancelled = ids.pop()
         assert c.post(f"/v1/jobs/{cancelled}/cancel").json()["state"] == "cancelled"
+        # Concurrent requests leave the API's pool holding several idle connections, each of
+        # them stale once Redis restarts.
+        with ThreadPoolExecutor(8) as pool:
+            assert set(pool.map(lambda _: c.get("/v1/jobs").status_code, range(32))) == {200}
         own_stack.kill_redis()  # SIGKILL: no chance to save anything beyond the append-only file
         down = c.get("/v1/jobs")
         assert down.status_code == 503 and "unavailable" in down.json()["detail"]
         assert c.get("/readyz").status_code == 503
         own_stack.start_redis()
+        # No request fails for a connection the restart left stale.
+        with ThreadPoolExecutor(8) as pool:
+            statuses = list(pool.map(lambda _: c.get("/v1/jobs", params={"state": "queued"}).status_code, range(32)))
+        assert statuses == [200] * 32, statuses
         listed = c.get("/v1/jobs", params={"state": "queued"}).json()
         assert sorted(j["id"] for j in listed["jobs"]) == sorted(ids)
         own_stack.start_worker()
