@@ -127,6 +127,28 @@ TEST(CcdResponse, StopsAVertexFallingThroughATriangle) {
 // separation is a hit when it crosses within the step and not when it only stays close (a
 // squeezed pair that a zone's motion keeps as close as it was). Passes with impulses still
 // push it apart.
+// Detection only (what a zone's motion leaves colliding), a pair that comes within the minimum
+// separation during the step without crossing is no collision either; with impulses it is.
+TEST(CcdResponse, DetectionOnlyReportsAnApproachingPairOnlyWhenItCrosses) {
+  const double separation = kCcdSeparationFraction * kThickness;
+  const double h = 0.01;
+  CollisionTelemetry frame;
+  const CcdResponse ccd(1);
+  VertexOverTriangle t(2.0 * separation, true);  // beyond the separation at the start
+  t.v(0, 2) = -1.5 * separation / h;             // ends at half of it, above the triangle
+  t.begin(h);
+  std::vector<int> hits;
+  EXPECT_EQ(ccd.pass(t.step, t.props, false, &hits, false, frame), 0);
+  EXPECT_TRUE(hits.empty());
+  t.v(0, 2) = -3.0 * separation / h;  // through the triangle
+  t.begin(h);
+  EXPECT_EQ(ccd.pass(t.step, t.props, false, &hits, false, frame), 1);
+  t.v(0, 2) = -1.5 * separation / h;
+  t.begin(h);
+  EXPECT_EQ(ccd.pass(t.step, t.props, true, nullptr, false, frame), 1);
+  EXPECT_GE(t.v(0, 2), t.v(1, 2));  // pushed apart
+}
+
 TEST(CcdResponse, DetectionOnlyReportsAPairWithinTheSeparationOnlyWhenItCrosses) {
   const double start = 0.5 * kCcdSeparationFraction * kThickness;  // within the separation
   const double h = 0.01;
@@ -192,37 +214,71 @@ TEST(ImpactZones, AZoneTouchingAPinnedVertexMovesWithIt) {
   EXPECT_EQ(t.v.row(0).norm(), 0.0);
 }
 
+// Cloth points along x at y = z = 0.1 between a still body face in the plane x = 0 and a body
+// edge at x = 5 mm moving at 1 m/s along z; pairs 0 (point 0 against the face) and 1 (edge
+// 0-1 against the moving edge) are colliding, and `extra` too.
+struct ZoneBetweenTwoBodies {
+  static constexpr double h = 0.01;
+  Positions x, v;
+  ContactProperties props;
+  CollisionStep step;
+  CollisionTelemetry frame;
+  ZoneBetweenTwoBodies(const std::vector<double>& along_x, const std::vector<FeaturePair>& extra = {}) {
+    const auto n = static_cast<Eigen::Index>(along_x.size());
+    x = Positions(n, 3);
+    v = Positions::Zero(n, 3);
+    for (Eigen::Index i = 0; i < n; ++i) x.row(i) << along_x[static_cast<size_t>(i)], 0.1, 0.1;
+    Positions still(3, 3), moving(2, 3);
+    still << 0.0, 0.0, 0.0, 0.0, 0.2, 0.0, 0.0, 0.0, 0.2;
+    moving << 0.005, 0.1, 0.0, 0.005, 0.1, 0.2;
+    props.inverse_mass.assign(along_x.size(), 1.0);
+    props.thickness.assign(along_x.size(), kThickness);
+    props.friction.assign(along_x.size(), 0.0);
+    step.begin(x, v, h);
+    step.body_start = {still, moving};
+    step.body_end = {still, moving};
+    step.body_end[1].col(2).array() += 1.0 * h;
+    step.pairs = {FeaturePair{{0, -1, -2, -3}, 0, false}, FeaturePair{{0, 1, -1, -2}, 1, true}};
+    step.pairs.insert(step.pairs.end(), extra.begin(), extra.end());
+  }
+  int resolve() {
+    std::vector<int> hits(step.pairs.size());
+    for (size_t k = 0; k < hits.size(); ++k) hits[k] = static_cast<int>(k);
+    return ImpactZones().resolve(step, props, hits, 1, [](std::vector<int>&) {}, frame);
+  }
+};
+
 // A zone caught between two bodies a few millimetres apart, one still, one moving (a strap
 // between the torso and a closing arm), with a cloth vertex 3 cm beyond them: the affine field
 // fitted to the body points is not extrapolated past their own velocities (it would move the far
 // vertex at 6 m/s and tear its edges).
 TEST(ImpactZones, AZoneBetweenTwoBodiesMovesNoFasterThanTheirPoints) {
-  Positions x(2, 3), v = Positions::Zero(2, 3);
-  x << 0.002, 0.1, 0.1, 0.03, 0.1, 0.1;  // cloth edge 0-1 running off along x
-  Positions still(3, 3), moving(2, 3);
-  still << 0.0, 0.0, 0.0, 0.0, 0.2, 0.0, 0.0, 0.0, 0.2;  // a body face in the plane x = 0
-  moving << 0.005, 0.1, 0.0, 0.005, 0.1, 0.2;              // a body edge at x = 5 mm
-  const double h = 0.01;
-  ContactProperties props;
-  props.inverse_mass = {1.0, 1.0};
-  props.thickness.assign(2, kThickness);
-  props.friction.assign(2, 0.0);
-  CollisionStep step;
-  step.begin(x, v, h);
-  step.body_start = {still, moving};
-  step.body_end = {still, moving};
-  step.body_end[1].col(2).array() += 1.0 * h;  // the edge moves at 1 m/s along z
-  step.pairs = {FeaturePair{{0, -1, -2, -3}, 0, false}, FeaturePair{{0, 1, -1, -2}, 1, true}};
-  std::vector<int> hits = {0, 1};
-  CollisionTelemetry frame;
-  EXPECT_EQ(ImpactZones().resolve(step, props, hits, 1, [](std::vector<int>&) {}, frame), 1);
+  ZoneBetweenTwoBodies t({0.002, 0.03});  // cloth edge 0-1 running off along x
+  EXPECT_EQ(t.resolve(), 1);
   // References: three still points and two at 1 m/s; their mean 0.4 m/s, widest spread 0.6.
   const Vec3 mean(0.0, 0.0, 0.4);
-  for (int i = 0; i < 2; ++i) EXPECT_LE((row3(v, i) - mean).norm(), 0.6 + 1e-12) << "vertex " << i;
+  for (int i = 0; i < 2; ++i) EXPECT_LE((row3(t.v, i) - mean).norm(), 0.6 + 1e-12) << "vertex " << i;
   // Between the bodies the field is the fit's own: the vertex 2 mm off the still face moves slower
   // than the one beyond the moving edge.
-  EXPECT_LT(v(0, 2), v(1, 2));
-  EXPECT_GT(v(1, 2), 0.9);
+  EXPECT_LT(t.v(0, 2), t.v(1, 2));
+  EXPECT_GT(t.v(1, 2), 0.9);
+}
+
+// A zone's velocity field stays affine when it is bounded: four points of a zone caught between
+// the two bodies, spread 3 cm beyond them, all get velocities on one affine field (so no two of
+// them can move through each other), none faster than the references' spread about their mean,
+// and h |G| <= 1/2.
+TEST(ImpactZones, ABoundedZoneFieldStaysAffine) {
+  ZoneBetweenTwoBodies t({0.002, 0.01, 0.02, 0.03}, {FeaturePair{{2, 0, 1, 3}, -1, false}});
+  EXPECT_EQ(t.resolve(), 1);
+  const Vec3 mean(0.0, 0.0, 0.4);
+  for (int i = 0; i < 4; ++i) EXPECT_LE((row3(t.v, i) - mean).norm(), 0.6 + 1e-12) << "vertex " << i;
+  // Collinear points: equal velocity differences per metre along the line.
+  const Vec3 slope = (row3(t.v, 1) - row3(t.v, 0)) / (t.x(1, 0) - t.x(0, 0));
+  for (int i = 2; i < 4; ++i)
+    EXPECT_LT((row3(t.v, i) - row3(t.v, 0) - slope * (t.x(i, 0) - t.x(0, 0))).norm(), 1e-12) << "vertex " << i;
+  EXPECT_LE(ZoneBetweenTwoBodies::h * slope.norm(), 0.5 + 1e-12);
+  EXPECT_LT(t.v(0, 2), t.v(3, 2));  // the field rises from the still body towards the moving one
 }
 
 // A zone that no motion frees (the re-detection finds the same pair every pass, as between two

@@ -103,12 +103,13 @@ int CcdResponse::pass(CollisionStep& step, const ContactProperties& props, bool 
     if (!hit[k]) continue;
     const FeaturePair& pair = step.pairs[k];
     double t = toi[k];
-    // Detection only (what a motion, an impact zone's, leaves colliding): a pair already within
-    // the minimum separation at the step's start (reported at time 0) that never crosses is no
-    // collision of the motion. Rigid and affine zone motions keep such pairs as close as they
-    // were (the squeezed layers of a bunched skirt); counting them made every zone that held
-    // one "unresolved" and its step was halved in vain.
-    if (!apply && t == 0.0 && !crossing(pair).hit) continue;
+    // Detection only (what a motion, an impact zone's, leaves colliding): only a pair that
+    // crosses is a collision of the motion; one that comes within the minimum separation, or
+    // starts there, and never crosses is left to the next step's proximity response. Zone
+    // motions squeeze layers (a bunched skirt between two closing legs): counting such pairs
+    // made the zones that held them "unresolved", their steps were halved in vain, and the
+    // zones grew over cloth that was never in danger.
+    if (!apply && !crossing(pair).hit) continue;
     // Earlier impulses of this pass may have changed the pair: then it is tested again with the
     // velocities of the moment. A pair none of whose points they moved keeps its answer.
     const bool moved_in_pass = std::any_of(pair.point.begin(), pair.point.end(),

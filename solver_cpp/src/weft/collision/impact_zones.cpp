@@ -107,15 +107,31 @@ int ImpactZones::resolve(CollisionStep& step, const ContactProperties& props, st
           inverse += eigen.eigenvectors().col(k) * eigen.eigenvectors().col(k).transpose() / eigen.eigenvalues()[k];
       gradient[i] = moment[i] * inverse;
     }
+    // The field stays affine: where it would carry a zone point faster than the references'
+    // spread, the whole gradient is scaled down (not each point's deviation clipped, which bends
+    // the field and moves the zone's points against each other). And h |G| <= 1/2, so the
+    // step's map x -> x + t h (c + G (x - p)) keeps every orientation for t in [0, 1]: no
+    // pair of the zone's own free cloth points can cross (gtest ABoundedZoneFieldStaysAffine).
+    std::vector<double> largest(vertex_count, 0.0);
+    for (int i = 0; i < vertex_count; ++i) {
+      if (!in_zone[i] || props.inverse_mass[i] == 0.0) continue;
+      const int r = zones.find(i);
+      if (ref_count[r] < 2) continue;
+      largest[r] = std::max(largest[r], (gradient[r] * (row3(x, i) - ref_point[r] / ref_count[r])).norm());
+    }
+    for (int i = 0; i < vertex_count; ++i) {
+      if (!in_zone[i] || zones.find(i) != i || ref_count[i] < 2) continue;
+      double scale = largest[i] > reach[i] ? reach[i] / largest[i] : 1.0;
+      const double size = step.h * scale * gradient[i].norm();
+      if (size > 0.5) scale *= 0.5 / size;
+      if (scale < 1.0) gradient[i] *= scale;
+    }
     for (int i = 0; i < vertex_count; ++i) {
       if (!in_zone[i] || props.inverse_mass[i] == 0.0) continue;
       const int r = zones.find(i);
       Vec3 vz;
       if (ref_count[r] > 0) {
-        Vec3 deviation = gradient[r] * (row3(x, i) - ref_point[r] / ref_count[r]);
-        const double size = deviation.norm();
-        if (size > reach[r]) deviation *= reach[r] / size;
-        vz = ref_sum[r] / ref_count[r] + deviation;
+        vz = ref_sum[r] / ref_count[r] + gradient[r] * (row3(x, i) - ref_point[r] / ref_count[r]);
       } else
         vz = momentum[r] / mass[r];
       // Only a velocity that changed (or a point of a pair that collided, above) makes its pairs
