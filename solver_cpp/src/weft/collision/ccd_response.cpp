@@ -35,6 +35,17 @@ bool apart_all_step(const std::array<Vec3, 4>& s, const std::array<Vec3, 4>& e, 
 }
 }  // namespace
 
+namespace {
+// Where a pair's features actually cross: no minimum separation, a tenth of it as the
+// tolerance, so features that come that close count as crossing.
+CcdOptions crossing_options(double thickness) {
+  CcdOptions options;
+  options.absolute_tolerance = 0.1 * kCcdSeparationFraction * thickness;
+  options.max_boxes = 2000;
+  return options;
+}
+}  // namespace
+
 int CcdResponse::pass(CollisionStep& step, const ContactProperties& props, bool apply, std::vector<int>* hits,
                       bool incremental, CollisionTelemetry& frame) const {
   Timer timer;
@@ -71,6 +82,13 @@ int CcdResponse::pass(CollisionStep& step, const ContactProperties& props, bool 
     if (!boxes_within(s, e, pair.edge_edge, options.minimum_separation)) return CcdResult{};
     const double gap = options.minimum_separation + 2.0 * options.absolute_tolerance;
     if (apart_all_step(s, e, pair.edge_edge, gap) || stays_apart(s, e, pair.edge_edge, gap)) return CcdResult{};
+    // Detection only (what a motion, an impact zone's, leaves colliding): only a pair that
+    // crosses is a collision of the motion; one that comes within the minimum separation, or
+    // starts there, and never crosses is left to the next step's proximity response. Zone
+    // motions squeeze layers (a bunched skirt between two closing legs): counting such pairs
+    // made the zones that held them "unresolved", their steps were halved in vain, and the
+    // zones grew over cloth that was never in danger.
+    if (!apply) options = crossing_options(th);
     return pair.edge_edge ? edge_edge_ccd(s, e, options) : vertex_triangle_ccd(s, e, options);
   };
   int candidates = 0;
@@ -85,17 +103,14 @@ int CcdResponse::pass(CollisionStep& step, const ContactProperties& props, bool 
   incremental = false;  // the serial pass re-tests hits with the velocities of the moment
   frame.ccd_seconds += timer.seconds();
   timer.restart();
-  // Where the pair's features actually cross (no minimum separation; a tenth of it as the
-  // tolerance, so features that come that close count as crossing).
+  // Where the pair's features actually cross (crossing_options).
   auto crossing = [&](const FeaturePair& pair) {
     std::array<Vec3, 4> s, e;
     for (int i = 0; i < 4; ++i) {
       s[i] = step.start_of(pair.point[i], pair.body);
       e[i] = step.end_of(pair.point[i], pair.body);
     }
-    CcdOptions options;
-    options.absolute_tolerance = 0.1 * kCcdSeparationFraction * props.pair_thickness(pair);
-    options.max_boxes = 2000;
+    const CcdOptions options = crossing_options(props.pair_thickness(pair));
     return pair.edge_edge ? edge_edge_ccd(s, e, options) : vertex_triangle_ccd(s, e, options);
   };
   int found = 0;
@@ -103,13 +118,6 @@ int CcdResponse::pass(CollisionStep& step, const ContactProperties& props, bool 
     if (!hit[k]) continue;
     const FeaturePair& pair = step.pairs[k];
     double t = toi[k];
-    // Detection only (what a motion, an impact zone's, leaves colliding): only a pair that
-    // crosses is a collision of the motion; one that comes within the minimum separation, or
-    // starts there, and never crosses is left to the next step's proximity response. Zone
-    // motions squeeze layers (a bunched skirt between two closing legs): counting such pairs
-    // made the zones that held them "unresolved", their steps were halved in vain, and the
-    // zones grew over cloth that was never in danger.
-    if (!apply && !crossing(pair).hit) continue;
     // Earlier impulses of this pass may have changed the pair: then it is tested again with the
     // velocities of the moment. A pair none of whose points they moved keeps its answer.
     const bool moved_in_pass = std::any_of(pair.point.begin(), pair.point.end(),
