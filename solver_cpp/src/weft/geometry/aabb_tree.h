@@ -140,22 +140,33 @@ class AabbTree {
   template <class Visit>
   void nearest(const Vec3& p, double& radius, Visit&& visit) const {
     if (nodes_.empty()) return;
-    int stack[64];
+    // Each stacked node with its box's squared distance, computed once (when its parent ordered
+    // it): radius only shrinks, so a node beyond it when stacked stays beyond it.
+    struct Stacked {
+      int node;
+      double squared_distance;
+    };
+    Stacked stack[64];
     int top = 0;
-    stack[top++] = 0;
+    // A little slack keeps a leaf exactly as near as the best (a tie) despite rounding.
+    auto beyond = [&radius](double squared) { return squared > radius * radius * (1.0 + 1e-9); };
+    stack[top++] = {0, nodes_[0].box.squared_distance(p)};
     while (top > 0) {
-      const Node& node = nodes_[stack[--top]];
-      // A little slack keeps a leaf exactly as near as the best (a tie) despite rounding.
-      if (node.box.squared_distance(p) > radius * radius * (1.0 + 1e-9)) continue;
+      const Stacked entry = stack[--top];
+      if (beyond(entry.squared_distance)) continue;
+      const Node& node = nodes_[entry.node];
       if (node.leaf >= 0) {
         visit(node.leaf);
         continue;
       }
       // The nearer child on top of the stack: visited first.
-      const bool left_nearer =
-          nodes_[node.left].box.squared_distance(p) <= nodes_[node.right].box.squared_distance(p);
-      stack[top++] = left_nearer ? node.right : node.left;
-      stack[top++] = left_nearer ? node.left : node.right;
+      const double left = nodes_[node.left].box.squared_distance(p);
+      const double right = nodes_[node.right].box.squared_distance(p);
+      const bool left_nearer = left <= right;
+      const Stacked nearer = left_nearer ? Stacked{node.left, left} : Stacked{node.right, right};
+      const Stacked farther = left_nearer ? Stacked{node.right, right} : Stacked{node.left, left};
+      if (!beyond(farther.squared_distance)) stack[top++] = farther;
+      if (!beyond(nearer.squared_distance)) stack[top++] = nearer;
     }
   }
   // visit(leaf) for every leaf whose box overlaps `box` (closed boxes).
