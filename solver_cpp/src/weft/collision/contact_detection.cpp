@@ -363,7 +363,7 @@ void ContactDetection::collect(CollisionStep& step, const ContactFilter& filter,
                      if (triangles_apart(cloth_planes_, a, cloth_faces_, x, end, cloth_planes_, b, cloth_faces_, x,
                                          end, gap, !swept, sides, shift))
                        return;
-                     const Sweep sweep{&x, &end, &x, &end, gap, swept ? nullptr : &sides, shift};
+                     const Sweep sweep{&x, &end, &x, &end, gap, &sides, shift};
                      expand_triangle_pair(a, b, -1, filter, out, &sweep);
                    });
     frame.self_collision_seconds += self_timer.seconds();
@@ -415,7 +415,7 @@ void ContactDetection::collect(CollisionStep& step, const ContactFilter& filter,
                                        body_start, body_end, gap, !swept, sides, shift))
                      return;
                    const size_t first = out.size();
-                   const Sweep sweep{&x, &end, &body_start, &body_end, gap, swept ? nullptr : &sides, shift};
+                   const Sweep sweep{&x, &end, &body_start, &body_end, gap, &sides, shift};
                    expand_triangle_pair(cf, bf, body, filter, out, &sweep);
                    if (!body_plain_[b] && filter.pinched_face(cf, body))  // cloth in a body/body pinch: no CCD
                      for (size_t j = first; j < out.size(); ++j) out[j].ccd = false;
@@ -494,7 +494,7 @@ void ContactDetection::collect_changed(CollisionStep& step, const ContactFilter&
         if (triangles_apart(cloth_planes_, lo, cloth_faces_, x, end, cloth_planes_, hi, cloth_faces_, x, end, gap, false,
                             sides, shift))
           return;
-        const Sweep sweep{&x, &end, &x, &end, gap, nullptr, shift};
+        const Sweep sweep{&x, &end, &x, &end, gap, &sides, shift};
         expand_triangle_pair(lo, hi, -1, filter, out, &sweep);
       };
       // The face's box less the self shrink (AabbTree::self_pairs'): a face a self pair is wanted
@@ -537,7 +537,7 @@ void ContactDetection::collect_changed(CollisionStep& step, const ContactFilter&
                                            body_start, body_end, gap, false, sides, shift))
                          return;
                        const size_t first = out.size();
-                       const Sweep sweep{&x, &end, &body_start, &body_end, gap, nullptr, shift};
+                       const Sweep sweep{&x, &end, &body_start, &body_end, gap, &sides, shift};
                        expand_triangle_pair(cf, bf, body, filter, out, &sweep);
                        if (!body_plain_[b] && filter.pinched_face(cf, body))
                          for (size_t j = first; j < out.size(); ++j) out[j].ccd = false;

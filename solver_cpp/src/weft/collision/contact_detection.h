@@ -120,11 +120,15 @@ class ContactDetection {
   // the step (the first feature's grown by sweep->gap) do not overlap are left out: that is
   // boxes_within, the first test of the proximity and CCD responses, computed the same way, and
   // collect() passes a gap no smaller than theirs, so what they do is unchanged; most feature
-  // pairs of a triangle pair are such. With the sweep's plane test (the proximity list's),
-  // pairs that either face's plane keeps more than the gap apart are left out too: the
-  // proximity response acts only within the gap, so what it does is unchanged (on the resting
-  // drape of `weft bench contact`, about a quarter fewer pairs listed). Pairs in a pinch region (no
-  // CCD) are always listed.
+  // pairs of a triangle pair are such. With the sweep's plane test (triangles_apart's
+  // distances, corner by corner), pairs that either face's plane keeps farther apart than the
+  // test's limit are left out too: for the proximity list more than the gap (its response acts
+  // only within the gap: on the resting drape of `weft bench contact`, about a quarter fewer
+  // pairs listed), for CCD's lists more than sqrt(3) gaps plus the plane's motion (a feature
+  // whose corners stay so far beyond stays farther than the gap in CCD's norm for the whole
+  // step, as the triangle pair's own test argues for all corners: on the standing dress a fifth
+  // fewer CCD candidates, positions bitwise unchanged). Pairs in a pinch region (no CCD) are
+  // always listed.
   void expand_triangle_pair(int cloth_face, int other_face, int body, const ContactFilter& filter,
                             std::vector<FeaturePair>& out, const Sweep* sweep = nullptr) const;
 
