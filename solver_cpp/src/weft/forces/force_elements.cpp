@@ -137,21 +137,30 @@ void compute_force_elements(const ForceModel& model, const ForceElementLayout& l
     if (has_face)
       for (int i = 0; i < 3; ++i)
         for (int r = 0; r < 3; ++r) shear_scaled[i][r] = shear_beta * m.shear_gradient[i][r];
+    // Each block's terms in turn over its nine coefficients (the tests hoisted out of the
+    // coefficient loops): every coefficient gets the same operations in the same order.
     Scalar* blocks = out.blocks.data() + static_cast<size_t>(e) * kElementSlots * 9;
     for (int a = 0; a < count; ++a)
       for (int b = a; b < count; ++b) {
         const int i = corner_of_slot[a], j = corner_of_slot[b];
-        const bool membrane = i >= 0 && j >= 0;
-        const double su = membrane ? m.a_u[i] * m.a_u[j] : 0.0, sv = membrane ? m.a_v[i] * m.a_v[j] : 0.0;
+        double value[3][3];
+        if (hinge.active) {
+          for (int r = 0; r < 3; ++r)
+            for (int c = 0; c < 3; ++c) value[r][c] = hinge_scaled[a][r] * hinge.g[3 * b + c];
+        } else {
+          for (auto& row : value) row[0] = row[1] = row[2] = 0.0;
+        }
+        if (i >= 0 && j >= 0) {
+          const double su = m.a_u[i] * m.a_u[j], sv = m.a_v[i] * m.a_v[j];
+          for (int r = 0; r < 3; ++r)
+            for (int c = 0; c < 3; ++c)
+              value[r][c] += (su * big_u(r, c) + sv * big_v(r, c)) + shear_scaled[i][r] * m.shear_gradient[j][c];
+        }
+        if (a == b)
+          for (int r = 0; r < 3; ++r) value[r][r] += vertex_damping[a];
         Scalar* dst = blocks + 9 * element_slot(a, b);
         for (int r = 0; r < 3; ++r)
-          for (int c = 0; c < 3; ++c) {
-            double value = hinge.active ? hinge_scaled[a][r] * hinge.g[3 * b + c] : 0.0;
-            if (membrane)
-              value += (su * big_u(r, c) + sv * big_v(r, c)) + shear_scaled[i][r] * m.shear_gradient[j][c];
-            if (a == b && r == c) value += vertex_damping[a];
-            dst[3 * r + c] = static_cast<Scalar>(value);
-          }
+          for (int c = 0; c < 3; ++c) dst[3 * r + c] = static_cast<Scalar>(value[r][c]);
       }
   }
 }
