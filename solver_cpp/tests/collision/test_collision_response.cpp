@@ -281,6 +281,41 @@ TEST(ImpactZones, ABoundedZoneFieldStaysAffine) {
   EXPECT_LT(t.v(0, 2), t.v(3, 2));  // the field rises from the still body towards the moving one
 }
 
+// A zone caught between two bodies moving apart (cloth between scissoring legs): two cloth points
+// between a face moving -x and one moving +x at 1 m/s, 2 cm apart. The references' fit stretches
+// along x at 100/s, h |G| = 1; halved to h |G| = 1/2 it would still stretch the cloth between
+// them by half in one step. The step's map stretches no direction by more than
+// ImpactZones::kMaxZoneStretch: the edge between the two points neither, and the field still
+// pulls them apart.
+TEST(ImpactZones, AZoneFieldStretchesItsClothByATenthAtMost) {
+  constexpr double h = 0.01;
+  Positions x(2, 3), v = Positions::Zero(2, 3);
+  x << 0.005, 0.1, 0.1, 0.015, 0.1, 0.1;
+  Positions left(3, 3), right(3, 3);
+  left << 0.0, 0.0, 0.0, 0.0, 0.2, 0.0, 0.0, 0.0, 0.2;
+  right = left;
+  right.col(0).array() += 0.02;
+  ContactProperties props;
+  props.inverse_mass.assign(2, 1.0);
+  props.thickness.assign(2, kThickness);
+  props.friction.assign(2, 0.0);
+  CollisionStep step;
+  step.begin(x, v, h);
+  step.body_start = {left, right};
+  step.body_end = {left, right};
+  step.body_end[0].col(0).array() -= 1.0 * h;
+  step.body_end[1].col(0).array() += 1.0 * h;
+  step.pairs = {FeaturePair{{0, -1, -2, -3}, 0, false}, FeaturePair{{1, -1, -2, -3}, 1, false},
+                FeaturePair{{0, 1, -1, -2}, 1, true}};
+  std::vector<int> hits = {0, 1, 2};
+  CollisionTelemetry frame;
+  EXPECT_EQ(ImpactZones().resolve(step, props, hits, 1, [](std::vector<int>&) {}, frame), 1);
+  const double before = (row3(x, 1) - row3(x, 0)).norm();
+  const double after = (row3(x, 1) + h * row3(v, 1) - row3(x, 0) - h * row3(v, 0)).norm();
+  EXPECT_LE(after, (1.0 + ImpactZones::kMaxZoneStretch) * before * (1.0 + 1e-9));
+  EXPECT_GT(after, 1.05 * before);
+}
+
 // A zone that no motion frees (the re-detection finds the same pair every pass, as between two
 // bodies moving apart) stops after ImpactZones::kStallPasses passes, not the whole budget, and
 // its pair counts as unresolved.

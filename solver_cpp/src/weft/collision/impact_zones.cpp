@@ -1,6 +1,7 @@
 #include "weft/collision/impact_zones.h"
 
 #include <algorithm>
+#include <cmath>
 
 #include <Eigen/Eigenvalues>
 
@@ -8,6 +9,28 @@
 #include "weft/common/union_find.h"
 
 namespace weft {
+
+namespace {
+// The largest stretch of the map I + A: its largest singular value.
+double largest_stretch(const Eigen::Matrix3d& a) {
+  const Eigen::Matrix3d map = Eigen::Matrix3d::Identity() + a;
+  const double largest = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(map.transpose() * map,
+                                                                          Eigen::EigenvaluesOnly).eigenvalues().maxCoeff();
+  return std::sqrt(std::max(largest, 0.0));
+}
+
+// The largest s in [0, upper] (to bisection's precision) with largest_stretch(s a) <= limit. The
+// norm of I + s a is convex in s and 1 at s = 0, so the s that satisfy it form an interval.
+double stretch_scale(const Eigen::Matrix3d& a, double upper, double limit) {
+  if (largest_stretch(upper * a) <= limit) return upper;
+  double low = 0.0, high = upper;
+  for (int k = 0; k < 40; ++k) {
+    const double mid = 0.5 * (low + high);
+    (largest_stretch(mid * a) <= limit ? low : high) = mid;
+  }
+  return low;
+}
+}  // namespace
 
 int ImpactZones::resolve(CollisionStep& step, const ContactProperties& props, std::vector<int>& hits, int iterations,
                          const std::function<void(std::vector<int>&)>& redetect, CollisionTelemetry& frame) const {
@@ -112,6 +135,11 @@ int ImpactZones::resolve(CollisionStep& step, const ContactProperties& props, st
     // the field and moves the zone's points against each other). And h |G| <= 1/2, so the
     // step's map x -> x + t h (c + G (x - p)) keeps every orientation for t in [0, 1]: no
     // pair of the zone's own free cloth points can cross (gtest ABoundedZoneFieldStaysAffine).
+    // And the map stretches no direction by more than kMaxZoneStretch: a zone whose references
+    // move apart (cloth caught between two faces scissoring apart) would otherwise stretch all
+    // of its cloth by up to half in each step (gtest AZoneFieldStretchesItsClothByATenthAtMost);
+    // a rotating limb's field (skew: sqrt(1 + (h |omega|)^2), a thousandth at 5 rad/s and
+    // 96 steps a second) passes.
     std::vector<double> largest(vertex_count, 0.0);
     for (int i = 0; i < vertex_count; ++i) {
       if (!in_zone[i] || props.inverse_mass[i] == 0.0) continue;
@@ -124,6 +152,7 @@ int ImpactZones::resolve(CollisionStep& step, const ContactProperties& props, st
       double scale = largest[i] > reach[i] ? reach[i] / largest[i] : 1.0;
       const double size = step.h * scale * gradient[i].norm();
       if (size > 0.5) scale *= 0.5 / size;
+      scale = stretch_scale(step.h * gradient[i], scale, 1.0 + kMaxZoneStretch);
       if (scale < 1.0) gradient[i] *= scale;
     }
     for (int i = 0; i < vertex_count; ++i) {
