@@ -148,6 +148,17 @@ struct ClothOverTiltedGrid {
   }
 };
 
+// A feature pair as a set key: its four points and its kind.
+using PairKey = std::array<int, 5>;
+PairKey key(const FeaturePair& p) { return {p.point[0], p.point[1], p.point[2], p.point[3], p.edge_edge ? 1 : 0}; }
+// The keys of a list, which must hold each pair once.
+std::set<PairKey> distinct_keys(const std::vector<FeaturePair>& pairs) {
+  std::set<PairKey> keys;
+  for (const FeaturePair& p : pairs) keys.insert(key(p));
+  EXPECT_EQ(keys.size(), pairs.size());
+  return keys;
+}
+
 // A cloth grid parallel to a body grid tilted 45 degrees (so that boxes are fat), 1.5 gaps
 // above it along the normal, with one corner of each cell pushed down to half a gap: the
 // proximity list holds every feature pair within the gap, and the planes keep out most of the
@@ -167,12 +178,8 @@ TEST(ContactDetection, TheProximityListHoldsEveryPairWithinTheGapAndFewOthers) {
   step.body_end = {body_x};
   CollisionTelemetry frame;
   detection.collect(step, ContactFilter(), frame, false);
-  auto key = [](const FeaturePair& p) {
-    return std::array<int, 5>{p.point[0], p.point[1], p.point[2], p.point[3], p.edge_edge ? 1 : 0};
-  };
-  std::set<std::array<int, 5>> listed, within, boxed;
-  for (const FeaturePair& p : step.proximity_pairs) listed.insert(key(p));
-  EXPECT_EQ(listed.size(), step.proximity_pairs.size());
+  const std::set<PairKey> listed = distinct_keys(step.proximity_pairs);
+  std::set<PairKey> within, boxed;
   // Every triangle pair, expanded in full (distances) and by boxes alone.
   const ContactDetection::Sweep boxes_only{&x, &x, &body_x, &body_x, gap};
   for (int cf = 0; cf < face_count; ++cf)
@@ -223,12 +230,8 @@ TEST(ContactDetection, TheCcdListHoldsEveryPairCcdReportsAndFewOthers) {
   step.body_end = {body_end};
   CollisionTelemetry frame;
   detection.collect(step, ContactFilter(), frame, true);
-  auto key = [](const FeaturePair& p) {
-    return std::array<int, 5>{p.point[0], p.point[1], p.point[2], p.point[3], p.edge_edge ? 1 : 0};
-  };
-  std::set<std::array<int, 5>> listed, boxed, hits;
-  for (const FeaturePair& p : step.pairs) listed.insert(key(p));
-  EXPECT_EQ(listed.size(), step.pairs.size());
+  const std::set<PairKey> listed = distinct_keys(step.pairs);
+  std::set<PairKey> boxed, hits;
   // CCD as the response runs it (a tenth of the separation as its tolerance), at 0.8 of the
   // gap: what it reports is then within 0.88 gaps in its norm, never a near miss it reports
   // only by its tolerance (those the triangle pairs' own plane test may already keep out).
