@@ -1,9 +1,12 @@
 #include "weft/integrator.h"
 
 #include <algorithm>
+#include <array>
+#include <cstdint>
 #include <cmath>
 #include <string>
 
+#include "weft/common/ordered_sum.h"
 #include "weft/common/timer.h"
 #include "weft/linear_system/make_linear_system.h"
 
@@ -139,11 +142,17 @@ void Simulation::set_state(const Positions& x, const Positions& v, const VectorX
 }
 
 Energies Simulation::energies() const {
+  // Fixed-order sums (ordered_sum.h): the same bits for any thread count.
   Energies e;
   const auto& mass = vertex_mass();
-  for (int i = 0; i < mesh_.vertex_count; ++i) e.kinetic += 0.5 * mass[i] * v_.row(i).squaredNorm();
-  e.gravity = force_model_->gravity_energy(x_);
-  e.elastic = force_model_->elastic_energy(x_, kAllForces);
+  const int threads = settings_.threads;
+  e.kinetic = ordered_sums<1>(mesh_.vertex_count, threads, [&](std::int64_t begin, std::int64_t end) {
+    double sum = 0.0;
+    for (auto i = static_cast<int>(begin); i < end; ++i) sum += 0.5 * mass[i] * v_.row(i).squaredNorm();
+    return std::array<double, 1>{sum};
+  })[0];
+  e.gravity = force_model_->gravity_energy(x_, threads);
+  e.elastic = force_model_->elastic_energy(x_, kAllForces, threads);
   return e;
 }
 
@@ -278,7 +287,7 @@ FrameTelemetry Simulation::advance_frame(double frame_start_time, double frame_d
   const Energies e = energies();
   telemetry.kinetic_energy = e.kinetic;
   telemetry.potential_energy = e.gravity + e.elastic;
-  telemetry.max_edge_strain = max_edge_strain(mesh_, x_);
+  telemetry.max_edge_strain = max_edge_strain(mesh_, x_, settings_.threads);
   telemetry.total_seconds = frame_timer.seconds();
   return telemetry;
 }

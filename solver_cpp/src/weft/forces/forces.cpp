@@ -361,33 +361,42 @@ void ForceModel::compute(const Positions& x, const Positions& v, double time, un
   out.elastic_energy = ordered_sum(energy, threads);
 }
 
-double ForceModel::elastic_energy(const Positions& x, unsigned terms) const {
-  double energy = 0.0;
+double ForceModel::elastic_energy(const Positions& x, unsigned terms, int threads) const {
+  // Faces then hinges as one range of terms, summed in fixed chunks (ordered_sum.h): the same
+  // bits for any thread count.
   const int face_count = static_cast<int>(mesh_.faces.rows());
-  for (int f = 0; f < face_count; ++f) {
-    const auto face = mesh_.faces.row(f);
-    const double kw = (terms & kStretch) ? materials_.face_stretch_warp[f] : 0.0;
-    const double kf = (terms & kStretch) ? materials_.face_stretch_weft[f] : 0.0;
-    const double ks = (terms & kShear) ? materials_.face_shear[f] : 0.0;
-    Vec3 w_u, w_v;  // energy only: no gradient or Hessian
-    deformation_columns(row3(x, face[0]), row3(x, face[1]), row3(x, face[2]), mesh_.rest_dm_inverse[f], w_u, w_v);
-    energy += membrane_energy_density(w_u.norm(), w_v.norm(), w_u.dot(w_v), kw, kf, ks, curve(f)) * mesh_.rest_area[f];
-  }
-  if (terms & kBend) {
-    for (size_t h = 0; h < mesh_.hinges.size(); ++h) {
-      const Hinge& hv = mesh_.hinges[h];
-      const double theta = hinge_angle(row3(x, hv[0]), row3(x, hv[1]), row3(x, hv[2]), row3(x, hv[3]));
-      const double delta = wrap_angle(theta - mesh_.hinge_rest_angle[h]);
-      energy += 0.5 * materials_.hinge_bend[h] * mesh_.hinge_weight[h] * delta * delta;
+  const std::int64_t hinge_count = (terms & kBend) ? static_cast<std::int64_t>(mesh_.hinges.size()) : 0;
+  auto term = [&](std::int64_t k) -> double {
+    if (k < face_count) {
+      const int f = static_cast<int>(k);
+      const auto face = mesh_.faces.row(f);
+      const double kw = (terms & kStretch) ? materials_.face_stretch_warp[f] : 0.0;
+      const double kf = (terms & kStretch) ? materials_.face_stretch_weft[f] : 0.0;
+      const double ks = (terms & kShear) ? materials_.face_shear[f] : 0.0;
+      Vec3 w_u, w_v;  // energy only: no gradient or Hessian
+      deformation_columns(row3(x, face[0]), row3(x, face[1]), row3(x, face[2]), mesh_.rest_dm_inverse[f], w_u, w_v);
+      return membrane_energy_density(w_u.norm(), w_v.norm(), w_u.dot(w_v), kw, kf, ks, curve(f)) * mesh_.rest_area[f];
     }
-  }
-  return energy;
+    const auto h = static_cast<size_t>(k - face_count);
+    const Hinge& hv = mesh_.hinges[h];
+    const double theta = hinge_angle(row3(x, hv[0]), row3(x, hv[1]), row3(x, hv[2]), row3(x, hv[3]));
+    const double delta = wrap_angle(theta - mesh_.hinge_rest_angle[h]);
+    return 0.5 * materials_.hinge_bend[h] * mesh_.hinge_weight[h] * delta * delta;
+  };
+  return ordered_sums<1>(face_count + hinge_count, threads, [&](std::int64_t begin, std::int64_t end) {
+    double sum = 0.0;
+    for (std::int64_t k = begin; k < end; ++k) sum += term(k);
+    return std::array<double, 1>{sum};
+  })[0];
 }
 
-double ForceModel::gravity_energy(const Positions& x) const {
-  double energy = 0.0;
-  for (int i = 0; i < mesh_.vertex_count; ++i) energy -= materials_.vertex_mass[i] * environment_.gravity.dot(row3(x, i));
-  return energy;
+double ForceModel::gravity_energy(const Positions& x, int threads) const {
+  return ordered_sums<1>(mesh_.vertex_count, threads, [&](std::int64_t begin, std::int64_t end) {
+    double energy = 0.0;
+    for (auto i = static_cast<int>(begin); i < end; ++i)
+      energy -= materials_.vertex_mass[i] * environment_.gravity.dot(row3(x, i));
+    return std::array<double, 1>{energy};
+  })[0];
 }
 
 }  // namespace weft

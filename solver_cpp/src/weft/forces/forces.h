@@ -149,8 +149,9 @@ class ForceModel {
   MembraneLinearization membrane_linearization(int face, const Positions& x) const;
   HingeLinearization hinge_linearization(int hinge, const Positions& x) const;
 
-  double elastic_energy(const Positions& x, unsigned terms) const;
-  double gravity_energy(const Positions& x) const;
+  // Fixed-order sums on `threads` threads (ordered_sum.h): the same bits for any count.
+  double elastic_energy(const Positions& x, unsigned terms, int threads = 1) const;
+  double gravity_energy(const Positions& x, int threads = 1) const;
 
   const ClothMesh& mesh() const { return mesh_; }
   const ClothMaterials& materials() const { return materials_; }

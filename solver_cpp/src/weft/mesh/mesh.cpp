@@ -99,10 +99,13 @@ ClothMesh build_cloth_mesh(int vertex_count, const Faces& faces, const FaceUVs& 
   return mesh;
 }
 
-double max_edge_strain(const ClothMesh& mesh, const Positions& x) {
+double max_edge_strain(const ClothMesh& mesh, const Positions& x, int threads) {
+  // A maximum does not depend on the order it is taken in: the same for any thread count.
   const auto& rest = mesh.rest_edge_length;
+  const auto face_count = static_cast<int>(mesh.faces.rows());
   double strain = 0.0;
-  for (Eigen::Index f = 0; f < mesh.faces.rows(); ++f)
+#pragma omp parallel for schedule(static) reduction(max : strain) num_threads(threads) if (threads > 1)
+  for (int f = 0; f < face_count; ++f)
     for (int c = 0; c < 3; ++c) {
       const double length = (row3(x, mesh.faces(f, (c + 1) % 3)) - row3(x, mesh.faces(f, c))).norm();
       if (rest[f][c] > 0.0) strain = std::max(strain, length / rest[f][c]);

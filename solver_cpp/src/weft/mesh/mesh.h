@@ -52,7 +52,7 @@ ClothMesh build_cloth_mesh(int vertex_count, const Faces& faces, const FaceUVs& 
 
 // Largest ratio of an edge's length in x to its rest length (from the triangles' rest frames),
 // over every edge of every triangle: 1 at rest, 1.5 for an edge stretched by half.
-double max_edge_strain(const ClothMesh& mesh, const Positions& x);
+double max_edge_strain(const ClothMesh& mesh, const Positions& x, int threads = 1);
 // Whether some edge (per face side, as max_edge_strain) is at most `start_bound` times its rest
 // length at `start` and more than `end_bound` times it at `end`: stretched that far within one step.
 bool edge_overstretched(const ClothMesh& mesh, const Positions& start, const Positions& end, double start_bound,
