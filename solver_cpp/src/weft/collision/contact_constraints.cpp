@@ -4,8 +4,6 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
-#include <stdexcept>
-#include <string>
 
 #include "weft/collision/proximity_response.h"
 #include "weft/geometry/closest_points.h"
@@ -22,27 +20,6 @@ constexpr double kContactBand = 2.0;
 // Cloth faces per parallel work item of the searches.
 constexpr std::int64_t kChunk = 256;
 }  // namespace
-
-std::vector<std::uint8_t> ContactConstraints::flags() const {
-  std::vector<std::uint8_t> out(held_.size(), 0);
-  for (size_t i = 0; i < out.size(); ++i) out[i] = held_[i] ? kHeld : (released_[i] ? kReleased : 0);
-  return out;
-}
-
-void ContactConstraints::set_flags(const std::vector<std::uint8_t>& flags, int vertex_count) {
-  if (!flags.empty() && flags.size() != static_cast<size_t>(vertex_count))
-    throw std::invalid_argument("contact_flags must be empty or have one entry per vertex (" +
-                                std::to_string(vertex_count) + ")");
-  for (std::uint8_t f : flags)
-    if (f != 0 && f != kHeld && f != kReleased)
-      throw std::invalid_argument("contact_flags entries must be 0 (none), 1 (held) or 2 (released)");
-  held_.assign(flags.size(), 0);
-  released_.assign(flags.size(), 0);
-  for (size_t i = 0; i < flags.size(); ++i) {
-    held_[i] = flags[i] == kHeld;
-    released_[i] = flags[i] == kReleased;
-  }
-}
 
 void ContactConstraints::constrain(const Positions& x, const Positions& v, double h, const CollisionStep& step,
                                    ContactDetection& detection, const ContactProperties& props,

@@ -24,7 +24,6 @@
 #pragma once
 
 #include <algorithm>
-#include <cstdint>
 #include <vector>
 
 #include "weft/collision/collision_step.h"
@@ -51,20 +50,12 @@ class ContactConstraints {
     contacts_.clear();
     looked_ = false;
   }
-  // Drops what the last steps decided (held, released): while contacts are set aside.
+  // Drops what the last steps decided (held, released): done at every frame start, so a run
+  // resumed from a cache at a frame boundary continues bitwise as the uninterrupted one.
   void forget() {
     std::fill(held_.begin(), held_.end(), 0);
     std::fill(released_.begin(), released_.end(), 0);
   }
-  // What the last step decided, per cloth vertex: kHeld (constrained with a pushing impulse: the
-  // next step keeps its contact), kReleased (its constraint pulled: free for the next step) or
-  // 0; empty before the first step. It carries over frame boundaries, so a cache keeps it with
-  // the state and a resumed run restores it (set_flags) to continue bit for bit.
-  static constexpr std::uint8_t kHeld = 1, kReleased = 2;
-  std::vector<std::uint8_t> flags() const;
-  // Throws std::invalid_argument unless flags is empty (nothing decided) or has vertex_count
-  // entries, each 0, kHeld or kReleased.
-  void set_flags(const std::vector<std::uint8_t>& flags, int vertex_count);
   bool empty() const { return contacts_.empty(); }
   // Per body, after this step's constrain() (null before it, or when it did not run): its
   // edges sharp for the cloth (sharp_edges.h). Every free cloth vertex within the band of a
