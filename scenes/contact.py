@@ -69,7 +69,7 @@ def box_pinch(directory: Path, n: int = 24, after: int = 8) -> dict[str, Any]:
 
 
 def thin_limb(directory: Path, n: int = 32, frames: int = 16, speed: float = 3.0, limb_radius: float = 0.015,
-              width: float = 0.5, substeps: int = 4) -> dict[str, Any]:
+              width: float = 0.5, substeps: int = 4, friction: float = 0.3) -> dict[str, Any]:
     """A `width` sheet hanging from its top row (vertical, in the xy plane, top at y = 0); a limb
     along x (closed tube, `limb_radius`, 1 m long, 12 x 20 tessellated) 0.3 m below the top
     starts 0.25 m behind the sheet and moves along +z at `speed` m/s until 0.5 m in front of it,
@@ -82,7 +82,7 @@ def thin_limb(directory: Path, n: int = 32, frames: int = 16, speed: float = 3.0
     directory.mkdir(parents=True, exist_ok=True)
     np.savez(directory / "limb.npz", positions=animation)
     doc = sheet_shot("thin_limb", n, n, width, width, plane="xy", pins=list(range(n)), frames=frames,
-                     substeps=substeps, fps=fps, material={"friction": 0.3, "damping": 0.01}, air_drag=0.2)
+                     substeps=substeps, fps=fps, material={"friction": friction, "damping": 0.01}, air_drag=0.2)
     doc["bodies"] = [{"name": "limb", "mesh": inline_mesh(start, limb_f), "animation": {"path": "limb.npz"}}]
     return doc
 

@@ -38,6 +38,9 @@ class SolverState:
     positions: np.ndarray
     velocities: np.ndarray
     warm_start: np.ndarray
+    # Per cloth vertex, the contact constraints' last decision (Simulation.contact_flags: 1 held,
+    # 3 held and sticking, 2 released); empty in a cache written before weft kept it (such a resume starts with none).
+    contact_flags: np.ndarray
 
 
 class CacheWriter:
@@ -138,6 +141,7 @@ class CacheWriter:
             state.create_dataset("positions", data=np.zeros((n, 3)))
             state.create_dataset("velocities", data=np.zeros((n, 3)))
             state.create_dataset("warm_start", data=np.zeros(3 * n))
+            state.create_dataset("contact_flags", data=np.zeros(n, dtype=np.uint8))
 
     @classmethod
     def resume(cls, path: str | Path, shot_hash: str) -> tuple[CacheWriter, SolverState | None]:
@@ -170,6 +174,7 @@ class CacheWriter:
             positions=state["positions"][()],
             velocities=state["velocities"][()],
             warm_start=state["warm_start"][()],
+            contact_flags=state["contact_flags"][()] if "contact_flags" in state else np.zeros(0, dtype=np.uint8),
         )
 
     def append(
@@ -180,9 +185,11 @@ class CacheWriter:
         warm_start: np.ndarray,
         telemetry: FrameTelemetry,
         body_positions: list[np.ndarray] | None = None,
+        contact_flags: np.ndarray | None = None,
     ) -> None:
         """body_positions: each body's vertices at this frame (stored when the cache keeps body
-        motion, ignored otherwise)."""
+        motion, ignored otherwise); contact_flags: Simulation.contact_flags after the frame
+        (none decided when None or empty)."""
         k = self.frames_written
         rows = [(self._positions, positions), (self._velocities, velocities)]
         if self._body_positions:
@@ -212,6 +219,9 @@ class CacheWriter:
             state["positions"][...] = positions
             state["velocities"][...] = velocities
             state["warm_start"][...] = warm_start
+            if "contact_flags" in state:
+                flags = state["contact_flags"]
+                flags[...] = contact_flags if contact_flags is not None and len(contact_flags) else 0
             self._file.flush()
             state["frame_index"][0] = k
             self._file.flush()

@@ -1,5 +1,6 @@
 // Python bindings: module weft._solver. Arrays cross as numpy (N, 3) float64 / int32.
 #include <pybind11/eigen.h>
+#include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
@@ -104,8 +105,16 @@ PYBIND11_MODULE(_solver, m) {
       .def_property_readonly("positions", &Simulation::positions)
       .def_property_readonly("velocities", &Simulation::velocities)
       .def("set_state", &Simulation::set_state, py::arg("positions"), py::arg("velocities"),
-           py::arg("warm_start") = VectorX())
+           py::arg("warm_start") = VectorX(), py::arg("contact_flags") = std::vector<std::uint8_t>())
       .def_property_readonly("warm_start", &Simulation::warm_start)
+      .def_property_readonly(
+          "contact_flags",
+          [](const Simulation& s) {
+            const std::vector<std::uint8_t> flags = s.contact_flags();
+            return py::array_t<std::uint8_t>(static_cast<py::ssize_t>(flags.size()), flags.data());
+          },
+          "Per cloth vertex, what the last step's contact constraints decided: 1 held, 3 held and sticking, 2 released, 0 "
+          "neither (empty before the first step or without collisions); part of a resumable state.")
       .def("energies", &Simulation::energies)
       .def_property_readonly("vertex_mass", &Simulation::vertex_mass)
       .def_property_readonly("hinge_count", [](const Simulation& s) { return s.mesh().hinges.size(); })

@@ -236,3 +236,25 @@ def test_culled_intersection_count_equals_the_all_pairs_count(threads):
     expected_body = _solver.count_mesh_intersections(x, faces, body_x, body_f)
     assert expected_self > 0 and expected_body > 0
     assert sim.count_intersections() == expected_self + expected_body
+
+
+def test_contact_flags_carry_over_frames_and_are_checked_when_restored():
+    # Contacts the constraints hold at a frame's end stay held into the next frame (a frame
+    # boundary is no event for resting cloth); set_state restores them and refuses bad ones.
+    doc = drop_shot("sphere", n=12, frames=12)
+    scene, sim = make_sim(doc, 1)
+    assert len(sim.contact_flags) == 0  # nothing decided before the first step
+    for index in range(1, 11):
+        frame_loop.advance(sim, scene, index)
+    flags = np.array(sim.contact_flags)
+    assert flags.shape == (scene.vertex_count,) and flags.dtype == np.uint8
+    # 1 held, 2 released, 3 held and sticking (friction stopped it on the sphere)
+    assert set(np.unique(flags)) <= {0, 1, 2, 3} and np.count_nonzero(flags == 3) > 0
+    x, v, warm = np.array(sim.positions), np.array(sim.velocities), np.array(sim.warm_start)
+    with pytest.raises(ValueError, match="contact_flags entries must be 0"):
+        sim.set_state(x, v, warm, np.full(scene.vertex_count, 4, dtype=np.uint8))
+    with pytest.raises(ValueError, match="contact_flags must be empty or have one entry per vertex"):
+        sim.set_state(x, v, warm, np.ones(scene.vertex_count + 1, dtype=np.uint8))
+    assert np.array_equal(np.array(sim.contact_flags), flags)  # a refused state changes nothing
+    sim.set_state(x, v, warm, np.zeros(0, dtype=np.uint8))
+    assert len(sim.contact_flags) == 0

@@ -100,7 +100,9 @@ def test_without_the_pinch_handling_the_squeezed_cloth_is_thrown(tmp_path):
 def test_a_deeper_pinch_cuts_the_cloth_with_the_rim_and_it_still_recovers(tmp_path):
     """6 mm interpenetration: the upper box's rim cuts cloth triangles (no vertex inside it)
     while CCD is off. Those faces keep no CCD against the box (CCD would lock the tangle), so
-    two frames after the box lifts the cloth is free."""
+    three frames after the box lifts the cloth is free (two while contacts were dropped at every
+    frame start; kept over frames, the cloth rests differently on the lower box before the pinch
+    and the last 8 of ~100 cut triangle pairs take one frame more)."""
     rows = run_pinch(tmp_path, depth=0.006)
     print(summary(rows, "6 mm"))
     by_frame = {r["frame"]: r for r in rows}
@@ -108,7 +110,7 @@ def test_a_deeper_pinch_cuts_the_cloth_with_the_rim_and_it_still_recovers(tmp_pa
     assert [r["frame"] for r in rows if r["pairs"] == 1] == list(PINCH_FRAMES), trace
     assert max(by_frame[f]["speed"] for f in CLOSED_FRAMES) < SPEED_BOUND, trace
     assert by_frame[max(PINCH_FRAMES)]["intersections"] > 0 and by_frame[max(PINCH_FRAMES)]["inside"] == [0, 0]
-    after = [r for r in rows if r["frame"] >= max(PINCH_FRAMES) + 2]
+    after = [r for r in rows if r["frame"] >= max(PINCH_FRAMES) + 3]
     assert all(r["intersections"] == 0 and r["inside"] == [0, 0] for r in after), trace
 
 

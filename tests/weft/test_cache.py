@@ -118,6 +118,35 @@ def test_resume_is_bitwise_identical(tmp_path, preconditioner: str) -> None:
         assert np.array_equal(a["state/velocities"][()], b["state/velocities"][()])
 
 
+def test_the_state_keeps_the_contact_constraints_decisions(tmp_path) -> None:
+    # A sheet resting on a sphere: contacts held at the end of a frame carry into the next one
+    # (Simulation.contact_flags), so the cache keeps them with the state and a resume gets them
+    # back (weft.runner hands them to Simulation.set_state).
+    from scenes.contact import drape_sphere
+    from weft.cache import CacheWriter
+
+    doc = drape_sphere(tmp_path, n=16, frames=14, width=0.5, radius=0.2, drop=0.02)
+    shot = tmp_path / "drape.json"
+    shot.write_text(json.dumps(doc))
+    split = tmp_path / "split.h5"
+    first = weft("run", str(shot), "-o", str(split), "--quiet", "--frames", "7")
+    assert first.returncode == 0, first.stderr
+    with open_cache_reader(split) as f:
+        flags = f["state/contact_flags"][()]
+        assert flags.shape == (256,) and flags.dtype == np.uint8
+        assert set(np.unique(flags)) <= {0, 1, 2, 3}
+        # resting contacts held (1, or 3: sticking) across the frame boundary
+        assert int(np.count_nonzero((flags == 1) | (flags == 3))) > 0
+        shot_hash = f.attrs["shot_hash"]
+    writer, state = CacheWriter.resume(split, shot_hash)
+    writer.close("partial")
+    assert state is not None and state.frame_index == 6
+    assert np.array_equal(state.contact_flags, flags)
+    second = weft("run", str(shot), "-o", str(split), "--quiet", "--resume")
+    assert second.returncode == 0, second.stderr
+    assert describe_cache(split)["status"] == "complete"
+
+
 def test_resume_refuses_a_different_shot(tmp_path) -> None:
     shot = write_shot(tmp_path, frames=6)
     cache = tmp_path / "c.h5"

@@ -76,9 +76,12 @@ class CollisionSystem {
   // spends no more passes or impact zones on a result it throws away.
   void abandon_when(std::function<bool(const Positions&)> test) { abandon_test_ = std::move(test); }
   bool abandoned() const { return abandoned_; }
-  void begin_frame() {
-    frame_ = {};
-    constraints_.forget();
+  void begin_frame() { frame_ = {}; }
+  // The contact constraints' per-vertex decisions of the last step (ContactConstraints::flags):
+  // part of the state a resumed run restores.
+  std::vector<std::uint8_t> contact_flags() const { return constraints_.flags(); }
+  void set_contact_flags(const std::vector<std::uint8_t>& flags, int vertex_count) {
+    constraints_.set_flags(flags, vertex_count);
   }
   CollisionTelemetry end_frame(const Positions& x, const std::vector<KinematicBody>& bodies);
   const CollisionSettings& settings() const { return settings_; }

@@ -130,12 +130,21 @@ void Simulation::set_pin_targets(const std::vector<int>& vertices, const Positio
   }
 }
 
-void Simulation::set_state(const Positions& x, const Positions& v, const VectorX& warm_start) {
+std::vector<std::uint8_t> Simulation::contact_flags() const {
+  return collisions_ ? collisions_->contact_flags() : std::vector<std::uint8_t>{};
+}
+
+void Simulation::set_state(const Positions& x, const Positions& v, const VectorX& warm_start,
+                           const std::vector<std::uint8_t>& contact_flags) {
   if (x.rows() != x_.rows() || v.rows() != v_.rows())
     throw std::invalid_argument("state must have one row per vertex (" + std::to_string(x_.rows()) + ")");
   if (warm_start.size() != 0 && warm_start.size() != 3 * x_.rows())
     throw std::invalid_argument("warm_start must be empty or have 3 entries per vertex");
   if (!x.allFinite() || !v.allFinite()) throw std::invalid_argument("state must be finite");
+  if (collisions_)
+    collisions_->set_contact_flags(contact_flags, static_cast<int>(x_.rows()));  // checks before any change
+  else if (!contact_flags.empty() && std::any_of(contact_flags.begin(), contact_flags.end(), [](auto f) { return f != 0; }))
+    throw std::invalid_argument("contact_flags given for a simulation without collisions");
   x_ = x;
   v_ = v;
   if (warm_start.size() == 0) dv_.setZero(); else dv_ = warm_start;
@@ -206,6 +215,7 @@ void Simulation::substep(double time, double h, double alpha0, double alpha1, in
   const bool can_halve = collisions_ && depth < settings_.max_substep_halvings;
   Positions x0, v0;
   VectorX dv0;
+  std::vector<std::uint8_t> contact_flags0;
   int unresolved_before = 0;
   // A step is halved for the strain it creates only from a clean start: in a GIA recovery or a
   // pinch the cloth is pulled or squeezed on purpose. And only for an edge it takes from within
@@ -219,6 +229,7 @@ void Simulation::substep(double time, double h, double alpha0, double alpha1, in
     x0 = x_;
     v0 = v_;
     dv0 = dv_;
+    contact_flags0 = collisions_->contact_flags();
     unresolved_before = collisions_->unresolved();
     watch_strain = settings_.max_step_strain > 0.0 && !collisions_->recovering();
     collisions_->limit_zone_passes(std::max(1, collisions_->settings().zone_iterations / 4));
@@ -257,6 +268,8 @@ void Simulation::substep(double time, double h, double alpha0, double alpha1, in
     x_ = x0;
     v_ = v0;
     dv_ = dv0;
+    // The contacts held or released are the start's too: the rejected attempt decided nothing.
+    collisions_->set_contact_flags(contact_flags0, static_cast<int>(x_.rows()));
     ++telemetry.subdivided_substeps;
     const double mid = 0.5 * (alpha0 + alpha1);
     substep(time, 0.5 * h, alpha0, mid, depth + 1, telemetry);

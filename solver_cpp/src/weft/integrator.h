@@ -4,6 +4,7 @@
 // with pins as prescribed velocity changes in the pre-filtered PCG.
 #pragma once
 
+#include <cstdint>
 #include <memory>
 #include <stdexcept>
 
@@ -100,7 +101,12 @@ class Simulation {
   // The last velocity change seeds the next CG solve; restoring it with the state makes a
   // resumed run bitwise identical to an uninterrupted one.
   const VectorX& warm_start() const { return dv_; }
-  void set_state(const Positions& x, const Positions& v, const VectorX& warm_start);
+  // The contact constraints' decisions of the last step, which carry over into the next frame
+  // (ContactConstraints::flags; empty without collisions or before the first step): restored
+  // with the state for the same reason.
+  std::vector<std::uint8_t> contact_flags() const;
+  void set_state(const Positions& x, const Positions& v, const VectorX& warm_start,
+                 const std::vector<std::uint8_t>& contact_flags = {});
   Energies energies() const;
 
   const ClothMesh& mesh() const { return mesh_; }

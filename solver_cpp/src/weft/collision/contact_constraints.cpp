@@ -4,6 +4,8 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <stdexcept>
+#include <string>
 
 #include "weft/collision/proximity_response.h"
 #include "weft/geometry/closest_points.h"
@@ -21,6 +23,31 @@ constexpr double kContactBand = 2.0;
 constexpr std::int64_t kChunk = 256;
 }  // namespace
 
+std::vector<std::uint8_t> ContactConstraints::flags() const {
+  std::vector<std::uint8_t> out(held_.size(), 0);
+  for (size_t i = 0; i < out.size(); ++i)
+    out[i] = held_[i] ? (i < stuck_.size() && stuck_[i] ? kStuck : kHeld) : (released_[i] ? kReleased : 0);
+  return out;
+}
+
+void ContactConstraints::set_flags(const std::vector<std::uint8_t>& flags, int vertex_count) {
+  if (!flags.empty() && flags.size() != static_cast<size_t>(vertex_count))
+    throw std::invalid_argument("contact_flags must be empty or have one entry per vertex (" +
+                                std::to_string(vertex_count) + ")");
+  for (std::uint8_t f : flags)
+    if (f > kStuck)
+      throw std::invalid_argument(
+          "contact_flags entries must be 0 (none), 1 (held), 2 (released) or 3 (held, sticking)");
+  held_.assign(flags.size(), 0);
+  released_.assign(flags.size(), 0);
+  stuck_.assign(flags.size(), 0);
+  for (size_t i = 0; i < flags.size(); ++i) {
+    held_[i] = flags[i] == kHeld || flags[i] == kStuck;
+    stuck_[i] = flags[i] == kStuck;
+    released_[i] = flags[i] == kReleased;
+  }
+}
+
 void ContactConstraints::constrain(const Positions& x, const Positions& v, double h, const CollisionStep& step,
                                    ContactDetection& detection, const ContactProperties& props,
                                    ConstraintFilter& filter, CollisionTelemetry& frame,
@@ -29,6 +56,7 @@ void ContactConstraints::constrain(const Positions& x, const Positions& v, doubl
   const int vertex_count = static_cast<int>(x.rows());
   if (released_.size() != static_cast<size_t>(vertex_count)) released_.assign(vertex_count, 0);
   if (held_.size() != static_cast<size_t>(vertex_count)) held_.assign(vertex_count, 0);
+  if (stuck_.size() != static_cast<size_t>(vertex_count)) stuck_.assign(vertex_count, 0);
   // Closest collidable body face within the band, per cloth vertex and body: a nearest-first
   // search of the body's tree at the step's start from each free vertex, which skips every
   // subtree whose box is farther than the band or than the nearest face found so far (a face
@@ -107,6 +135,8 @@ void ContactConstraints::constrain(const Positions& x, const Positions& v, doubl
   // A vertex set aside is treated as released: no vertex or edge contact, nothing kept.
   std::vector<char> was_released = released_;
   const std::vector<char> was_held = held_;
+  const std::vector<char> was_stuck = stuck_;
+  std::fill(stuck_.begin(), stuck_.end(), 0);
   if (aside)
     for (int i = 0; i < vertex_count; ++i) was_released[i] |= (*aside)[i];
   std::fill(released_.begin(), released_.end(), 0);
@@ -122,7 +152,20 @@ void ContactConstraints::constrain(const Positions& x, const Positions& v, doubl
     // only when the vertex already approaches faster than the target.
     if (!was_held[i] && vn > target) continue;
     c.delta_vn = target - vn;
-    filter.constrain_direction(i, c.normal, c.delta_vn);
+    c.friction = props.friction[i];
+    if (was_stuck[i] && c.friction > 0.0) {
+      // Static friction inside the solve: the last step's friction stopped this held vertex on
+      // the body, so this solve prescribes all of its velocity (the body's plus the normal
+      // target) and its neighbours answer to a vertex that stays put. Applied after the solve
+      // instead, friction stops the vertex while they move as if it had slid: the stretch that
+      // leaves is elastic energy from nowhere (a drape kept its contacts over frames gained
+      // ten times its elastic energy and slid off the sphere).
+      c.stuck = true;
+      c.stuck_dv = c.body_velocity + target * c.normal - row3(v, i);
+      filter.constrain_fully(i, c.stuck_dv);
+    } else {
+      filter.constrain_direction(i, c.normal, c.delta_vn);
+    }
     held_[i] = 1;  // cleared by impulses() when the constraint pulled
     contacts_.push_back(c);
   }
@@ -251,8 +294,13 @@ int ContactConstraints::impulses(const VectorX& residual) {
   int pulled = 0;
   for (Contact& c : contacts_) {
     // The solved system is A dv = b + (constraint impulses): the constraint's is -r_i.
-    const double impulse = -c.normal.dot(residual.segment<3>(3 * c.vertex));
+    const Vec3 force = -residual.segment<3>(3 * c.vertex);
+    const double impulse = c.normal.dot(force);
+    // A sticking contact whose tangential impulse left the friction cone slides from the next
+    // step on (its normal only prescribed, kinetic friction after the solve).
+    if (c.stuck && impulse >= 0.0) c.slides = (force - impulse * c.normal).norm() > c.friction * impulse;
     if (impulse < 0.0) {
+      c.stuck = false;
       released_[c.vertex] = 1;
       held_[c.vertex] = 0;
       ++pulled;
@@ -262,16 +310,24 @@ int ContactConstraints::impulses(const VectorX& residual) {
   return pulled;
 }
 
-void ContactConstraints::friction(CollisionStep& step, const ContactProperties& props) const {
+void ContactConstraints::friction(CollisionStep& step, const ContactProperties& props) {
   for (const Contact& c : contacts_) {
     const double mu = props.friction[c.vertex];
+    if (c.stuck) {  // the solve kept it on the body
+      if (!c.slides) stuck_[c.vertex] = 1;
+      continue;
+    }
     if (mu <= 0.0 || c.impulse <= 0.0) continue;
     const Vec3 v_rel = row3(*step.v, c.vertex) - c.body_velocity;
     const Vec3 v_t = v_rel - c.normal.dot(v_rel) * c.normal;
     const double vt_norm = v_t.norm();
-    if (vt_norm <= 0.0) continue;
+    if (vt_norm <= 0.0) {
+      if (held_[c.vertex]) stuck_[c.vertex] = 1;  // at rest on the body
+      continue;
+    }
     // Coulomb: the tangential velocity change is at most mu times the normal one.
     const double scale = std::max(0.0, 1.0 - mu * c.impulse * props.inverse_mass[c.vertex] / vt_norm);
+    if (scale == 0.0 && held_[c.vertex]) stuck_[c.vertex] = 1;  // stopped: sticks in the next solve
     step.v->row(c.vertex) += ((scale - 1.0) * v_t).transpose();
     step.moved(c.vertex);
   }

@@ -11,7 +11,10 @@
 // the residual gives each constraint's normal impulse; a constraint that pulled the cloth
 // towards the body (negative impulse: the cloth wants to leave) is released for the next step,
 // so cloth lifts off freely instead of alternating between held and free. Coulomb friction
-// uses that impulse as the normal impulse. The collision system uses them only while the state
+// uses that impulse as the normal impulse, after the solve while the vertex slides; a held
+// vertex that friction stopped sticks in the next solve (static friction as a full constraint,
+// Baraff & Witkin 1998), until its tangential impulse leaves the cone or the normal one pulls.
+// These decisions carry over frame boundaries (resting cloth rests on); a cache keeps them. The collision system uses them only while the state
 // is clean: while GIA or a pinch is at work, the impulses take over (collision_system.cpp).
 //
 // Cloth edges get contacts too where a body edge is sharp enough to catch one between its ends
@@ -24,6 +27,7 @@
 #pragma once
 
 #include <algorithm>
+#include <cstdint>
 #include <vector>
 
 #include "weft/collision/collision_step.h"
@@ -44,18 +48,29 @@ class ContactConstraints {
   // After the solve, residual = b - A dv of the solved system: each contact's normal impulse;
   // contacts that pulled are released for the next step. Returns how many pulled.
   int impulses(const VectorX& residual);
-  // After the solve: Coulomb friction of this step's contacts on step.v.
-  void friction(CollisionStep& step, const ContactProperties& props) const;
+  // After the solve: Coulomb friction of this step's contacts on step.v, except those the solve
+  // held as sticking; marks the held contacts friction stopped (they stick in the next solve).
+  void friction(CollisionStep& step, const ContactProperties& props);
   void clear() {
     contacts_.clear();
     looked_ = false;
   }
-  // Drops what the last steps decided (held, released): done at every frame start, so a run
-  // resumed from a cache at a frame boundary continues bitwise as the uninterrupted one.
+  // Drops what the last steps decided (held, released): while contacts are set aside.
   void forget() {
     std::fill(held_.begin(), held_.end(), 0);
     std::fill(released_.begin(), released_.end(), 0);
+    std::fill(stuck_.begin(), stuck_.end(), 0);
   }
+  // What the last step decided, per cloth vertex: kHeld (constrained with a pushing impulse: the
+  // next step keeps its contact), kStuck (held, and friction stopped it on the body: the next
+  // solve prescribes all its velocity), kReleased (its constraint pulled: free for the next
+  // step) or 0; empty before the first step. It carries over frame boundaries, so a cache keeps it with
+  // the state and a resumed run restores it (set_flags) to continue bit for bit.
+  static constexpr std::uint8_t kHeld = 1, kReleased = 2, kStuck = 3;
+  std::vector<std::uint8_t> flags() const;
+  // Throws std::invalid_argument unless flags is empty (nothing decided) or has vertex_count
+  // entries, each 0, kHeld, kReleased or kStuck.
+  void set_flags(const std::vector<std::uint8_t>& flags, int vertex_count);
   bool empty() const { return contacts_.empty(); }
   // Per body, after this step's constrain() (null before it, or when it did not run): its
   // edges sharp for the cloth (sharp_edges.h). Every free cloth vertex within the band of a
@@ -80,6 +95,10 @@ class ContactConstraints {
     Vec3 body_velocity;
     double delta_vn;      // normal velocity change the constraint prescribed
     double impulse = 0.0;  // normal impulse the constraint applied (after the solve), >= 0
+    bool stuck = false;    // static friction: all three directions prescribed (sticks to the body)
+    bool slides = false;   // stuck, but its tangential impulse left the friction cone
+    Vec3 stuck_dv = Vec3::Zero();  // the velocity change prescribed when stuck
+    double friction = 0.0;         // the vertex's Coulomb coefficient
   };
   // A cloth edge's closest sharp body edge within the band.
   struct EdgeNear {
@@ -97,6 +116,7 @@ class ContactConstraints {
   std::vector<Contact> contacts_;
   std::vector<char> released_;  // per cloth vertex: its constraint pulled last step, free this step
   std::vector<char> held_;      // per cloth vertex: constrained last step with a pushing impulse
+  std::vector<char> stuck_;     // per cloth vertex: held, and static friction stopped it last step
   std::vector<SharpEdges> sharp_;  // per body
   std::vector<char> clear_;        // per cloth vertex: clear_vertices()
   bool looked_ = false;            // constrain() ran since the last clear()
