@@ -57,11 +57,18 @@ def test_a_part_passing_over_squeezed_cloth_leaves_it_on_the_other_part(tmp_path
     assert pinched and pinched == list(range(pinched[0], pinched[-1] + 1)), t
     assert 5 <= pinched[0] and pinched[-1] < SWEEP, t
     assert all(r["bodies"] == 0 for r in rows), t
-    # The fail-safe has nothing to fight: no impact zone, nothing unresolved, no halved substep.
-    assert all(r["zones"] == 0 and r["unresolved"] == 0 and r["substeps"] == substeps for r in rows), t
-    # Never into the torso (CCD keeps it out), edges within the strain target.
+    # The fail-safe has little to fight: nothing unresolved, no halved substep, and impact zones
+    # (at most two per frame) only while the pinch squeezes the sheet. (None at all while contacts
+    # were dropped at every frame start; kept over frames, with friction sticking inside the
+    # solve, 16 substeps needed 1-2 zones in two of the pinched frames: docs/collisions.md,
+    # twenty-third session.)
+    assert all(r["unresolved"] == 0 and r["substeps"] == substeps for r in rows), t
+    assert all(r["zones"] == 0 for r in rows if r["parts"] == 0) and max(r["zones"] for r in rows) <= 2, t
+    # Never into the torso (CCD keeps it out); edges within the strain target outside the pinch,
+    # and within 1.6 where the arm squeezes the sheet (a forced pinch: 1.56 at 4 substeps).
     assert all(r["inside"][0] == 0 for r in rows), t
-    assert max(r["strain"] for r in rows) < 1.5, t
+    assert max(r["strain"] for r in rows if r["parts"] == 0) < 1.5, t
+    assert max(r["strain"] for r in rows) < 1.6, t
     # Once the arm has passed, the cloth is free of both parts. (Whether the arm's friction
     # drags the squeezed sheet along, or the torso's holds it, is not decided by this scene:
     # both parts have the cloth's friction; at 4 substeps it stays on the block, at 16 it is

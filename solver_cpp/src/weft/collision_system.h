@@ -139,6 +139,7 @@ class CollisionSystem {
   // intersection: all set aside.
   bool aside_local_ = false;
   std::vector<char> aside_;
+  Positions velocity_before_limit_;  // scratch: v before the strain limit, while a vertex sticks
   int zone_pass_limit_ = 0;
   std::function<bool(const Positions&)> abandon_test_;
   bool abandoned_ = false;

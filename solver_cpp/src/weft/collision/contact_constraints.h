@@ -51,6 +51,13 @@ class ContactConstraints {
   // After the solve: Coulomb friction of this step's contacts on step.v, except those the solve
   // held as sticking; marks the held contacts friction stopped (they stick in the next solve).
   void friction(CollisionStep& step, const ContactProperties& props);
+  bool any_stuck() const { return std::find(stuck_.begin(), stuck_.end(), 1) != stuck_.end(); }
+  // After friction: a vertex marked sticking whose velocity changed from before to after (the
+  // strain limit moved it) does not stick in the next solve.
+  void unstick_changed(const Positions& before, const Positions& after) {
+    for (size_t i = 0; i < stuck_.size(); ++i)
+      if (stuck_[i] && before.row(static_cast<Eigen::Index>(i)) != after.row(static_cast<Eigen::Index>(i))) stuck_[i] = 0;
+  }
   void clear() {
     contacts_.clear();
     looked_ = false;
