@@ -14,8 +14,9 @@
 // uses that impulse as the normal impulse, after the solve while the vertex slides; a held
 // vertex that friction stopped sticks in the next solve (static friction as a full constraint,
 // Baraff & Witkin 1998), until its tangential impulse leaves the cone or the normal one pulls.
-// These decisions carry over frame boundaries (resting cloth rests on); a cache keeps them. The collision system uses them only while the state
-// is clean: while GIA or a pinch is at work, the impulses take over (collision_system.cpp).
+// These decisions carry over frame boundaries (resting cloth rests on); a cache keeps them.
+// The collision system uses them only while the state is clean: while GIA or a pinch is at
+// work, the impulses take over (collision_system.cpp).
 //
 // Cloth edges get contacts too where a body edge is sharp enough to catch one between its ends
 // (sharp_edges.h: a coarse sheet on a thin limb, a strap over a box corner). Such an edge, with
@@ -62,7 +63,7 @@ class ContactConstraints {
     contacts_.clear();
     looked_ = false;
   }
-  // Drops what the last steps decided (held, released): while contacts are set aside.
+  // Drops what the last steps decided (held, released, sticking): while contacts are set aside.
   void forget() {
     std::fill(held_.begin(), held_.end(), 0);
     std::fill(released_.begin(), released_.end(), 0);
@@ -71,8 +72,8 @@ class ContactConstraints {
   // What the last step decided, per cloth vertex: kHeld (constrained with a pushing impulse: the
   // next step keeps its contact), kStuck (held, and friction stopped it on the body: the next
   // solve prescribes all its velocity), kReleased (its constraint pulled: free for the next
-  // step) or 0; empty before the first step. It carries over frame boundaries, so a cache keeps it with
-  // the state and a resumed run restores it (set_flags) to continue bit for bit.
+  // step) or 0; empty before the first step. It carries over frame boundaries, so a cache
+  // keeps it with the state and a resumed run restores it (set_flags).
   static constexpr std::uint8_t kHeld = 1, kReleased = 2, kStuck = 3;
   std::vector<std::uint8_t> flags() const;
   // Throws std::invalid_argument unless flags is empty (nothing decided) or has vertex_count
