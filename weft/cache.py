@@ -39,7 +39,8 @@ class SolverState:
     velocities: np.ndarray
     warm_start: np.ndarray
     # Per cloth vertex, the contact constraints' last decision (Simulation.contact_flags: 1 held,
-    # 3 held and sticking, 2 released); empty in a cache written before weft kept it (such a resume starts with none).
+    # 3 held and sticking, 2 released); empty in a cache written before weft kept it (such a
+    # resume starts with none).
     contact_flags: np.ndarray
 
 
