@@ -195,3 +195,23 @@ def test_static_friction_holds_cloth_on_an_incline_and_kinetic_friction_lets_it_
     x = [x for x, _ in sliding]
     acceleration = (x[-1] - 2 * x[-2] + x[-3]) * 24.0**2
     assert x[-1] > 0.2 and abs(acceleration - 2.43) < 0.25, (x, acceleration)
+
+
+
+def test_a_fast_thin_limb_does_not_carry_the_sheet_it_sweeps_by_friction(tmp_path):
+    """A limb 3 or 2 cm thick sweeping a hanging sheet at 3 m/s, friction 0.3: the sheet slides
+    round it, and off once it stops, instead of being carried. Friction after the solve acts on a
+    vertex alone; while it took the impact's share of a new contact's normal impulse and made
+    vertices stopped from sliding at metres per second stick, the limb dragged them and edges
+    reached 3.3x and 6.2x their rest length, the thinner limb's sheet still 6.2x after the limb
+    stood (docs/collisions.md, twenty-fourth session)."""
+    from scenes.contact import thin_limb
+
+    for radius in (0.015, 0.01):
+        directory = tmp_path / f"limb_{radius}"
+        scene = make_scene(thin_limb(directory, frames=11, friction=0.3, limb_radius=radius), directory)
+        _, rows = run(scene)
+        strains = [t.max_edge_strain for t in rows]
+        assert all(t.intersections == 0 for t in rows), radius
+        assert max(strains) < 1.75, (radius, strains)  # the step-strain bound (halving)
+        assert strains[-1] < 1.1, (radius, strains)  # the limb stopped at frame 7: the sheet hangs free

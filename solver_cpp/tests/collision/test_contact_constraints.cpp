@@ -196,5 +196,78 @@ TEST(ContactConstraints, TheSameContactsOnAnyThreadCount) {
   }
 }
 
+// Friction of a contact's first step: its normal impulse stops the vertex's approach (an
+// impact), and that share neither bounds its friction nor makes it stick; once held, the impulse
+// that presses it on the body does, and a stop makes it stick only when it slid less than its
+// thickness in the step. A 2 x 2 cloth patch 1.5 thicknesses over a flat floor, unit
+// masses, A = I (no forces): the solve's dv is the filter's prescribed value, so each contact's
+// normal impulse is exactly its prescribed normal velocity change (plus b's normal part).
+TEST(ContactConstraints, FrictionFromThePressingImpulseAndStickingOnlyFromRest) {
+  Positions floor(4, 3);
+  floor << -1, -1, 0, 1, -1, 0, -1, 1, 0, 1, 1, 0;
+  const std::vector<KinematicBody> bodies{KinematicBody(testing::grid_faces(2), floor)};
+  const Faces cloth = testing::grid_faces(2);
+  Positions x(4, 3);
+  x << 0, 0, 1.5 * kThickness, 0.01, 0, 1.5 * kThickness, 0, 0.01, 1.5 * kThickness, 0.01, 0.01, 1.5 * kThickness;
+  ContactProperties props;
+  props.inverse_mass.assign(4, 1.0);
+  props.thickness.assign(4, kThickness);
+  props.friction.assign(4, 0.3);
+  ContactDetection detection(cloth, x, std::vector<char>(2, 1), std::vector<char>(2, 0),
+                             std::vector<double>(2, kThickness), bodies, {1});
+  const double h = 0.01;
+  // Target normal speed 1.5 thicknesses out: the speed that ends the step at the thickness.
+  const double target = (kThickness - 1.5 * kThickness) / h;
+  ContactConstraints contacts;
+  // One step: constrain, solve A dv = b with A = I, impulses from the residual, friction.
+  auto step = [&](Positions& v, const Vec3& b) {
+    CollisionStep cs;
+    cs.begin(x, v, h);
+    cs.body_start.push_back(floor);
+    cs.body_end.push_back(floor);
+    ConstraintFilter filter;
+    filter.reset(4);
+    CollisionTelemetry frame;
+    contacts.clear();
+    contacts.constrain(x, v, h, cs, detection, props, filter, frame);
+    VectorX rhs(12), dv(12);
+    for (int i = 0; i < 4; ++i) rhs.segment<3>(3 * i) = b;
+    for (int i = 0; i < 4; ++i)
+      dv.segment<3>(3 * i) = filter.projection[i] * rhs.segment<3>(3 * i) + filter.prescribed.segment<3>(3 * i);
+    contacts.impulses(rhs - dv);
+    for (int i = 0; i < 4; ++i) v.row(i) += dv.segment<3>(3 * i).transpose();
+    contacts.friction(cs, props);
+    cs.end();
+    return frame.contact_constraints;
+  };
+  // Step 1: every vertex arrives at 3 m/s with 0.5 m/s along the floor. The constraint's impulse
+  // (target + 3 per unit mass) times 0.3 would stop the sliding (0.87 > 0.5); without the
+  // impact's share it presses with target < 0: no friction, and nothing sticks.
+  Positions v(4, 3);
+  for (int i = 0; i < 4; ++i) v.row(i) << 0.5, 0.0, -3.0;
+  ASSERT_EQ(step(v, Vec3::Zero()), 4);
+  for (int i = 0; i < 4; ++i) {
+    EXPECT_NEAR(v(i, 0), 0.5, 1e-12) << "vertex " << i;
+    EXPECT_NEAR(v(i, 2), target, 1e-12) << "vertex " << i;
+  }
+  EXPECT_EQ(contacts.flags(), std::vector<std::uint8_t>(4, ContactConstraints::kHeld));
+  // Step 2, the same positions, pressed by b = -0.1 along the normal (gravity's h g, say): held
+  // now, its whole normal impulse 0.1 presses, and friction takes 0.3 x 0.1 off the sliding.
+  ASSERT_EQ(step(v, Vec3(0.0, 0.0, -0.1)), 4);
+  for (int i = 0; i < 4; ++i) EXPECT_NEAR(v(i, 0), 0.5 - 0.3 * 0.1, 1e-12) << "vertex " << i;
+  EXPECT_EQ(contacts.flags(), std::vector<std::uint8_t>(4, ContactConstraints::kHeld));
+  // Step 3: pressed a hundred times harder, friction stops it; but it slid 4.7 mm (0.47 m/s for
+  // 0.01 s), more than its thickness: it stays held and does not stick.
+  ASSERT_EQ(step(v, Vec3(0.0, 0.0, -10.0)), 4);
+  for (int i = 0; i < 4; ++i) EXPECT_NEAR(v(i, 0), 0.0, 1e-12) << "vertex " << i;
+  EXPECT_EQ(contacts.flags(), std::vector<std::uint8_t>(4, ContactConstraints::kHeld));
+  // Step 4: sliding at 0.1 m/s (1 mm in the step), the same pressure stops it, and it sticks in
+  // the next solve.
+  for (int i = 0; i < 4; ++i) v(i, 0) = 0.1;
+  ASSERT_EQ(step(v, Vec3(0.0, 0.0, -10.0)), 4);
+  for (int i = 0; i < 4; ++i) EXPECT_NEAR(v(i, 0), 0.0, 1e-12) << "vertex " << i;
+  EXPECT_EQ(contacts.flags(), std::vector<std::uint8_t>(4, ContactConstraints::kStuck));
+}
+
 }  // namespace
 }  // namespace weft

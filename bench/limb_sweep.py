@@ -1,0 +1,89 @@
+"""The thin limb (`scenes.contact.thin_limb`: a hanging sheet a limb sweeps through) over variants
+of the limb's speed and thickness, the cloth's friction and the substeps: per variant the
+largest edge strain of any frame, the strain of the last frame (the limb stands from frame 7
+at 3 m/s: a sheet it carried stays stretched) and s/frame. One scene is chaotic; a rule for
+cloth on fast bodies is judged over these variants (docs/collisions.md, twenty-fourth session).
+
+    python -m bench.limb_sweep [--frames 12] [--threads 1] [--json out/limb_sweep.json]
+
+`--module PATH` runs a solver module built elsewhere (bench.module_ab.load_module), to compare
+two builds variant by variant.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import tempfile
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from rich.console import Console
+from rich.table import Table
+
+# Keyword arguments of scenes.contact.thin_limb; {} is the bench scene itself.
+VARIANTS: list[dict[str, Any]] = [
+    {},
+    {"friction": 0.6},
+    {"friction": 0.0},
+    {"speed": 2.5},
+    {"speed": 4.0},
+    {"substeps": 6},
+    {"limb_radius": 0.01},
+]
+
+
+def run_variant(variant: dict[str, Any], frames: int, threads: int, directory: Path) -> dict[str, Any]:
+    from bench.contact import run_weft
+    from scenes.contact import thin_limb
+    from weft.shot import parse_shot
+    from weft.solver_setup import resolve_scene
+
+    scene = resolve_scene(parse_shot(thin_limb(directory, frames=frames, **variant)), directory)
+    run = run_weft(scene, frames, threads)
+    strains = [float(t.max_edge_strain) for t in run["telemetry"]]
+    seconds = run["frame_seconds"]
+    return {"variant": variant, "strain_per_frame": strains, "max_strain": max(strains, default=float("nan")),
+            "last_strain": strains[-1] if strains else float("nan"),
+            "seconds_per_frame": float(np.mean(seconds)) if len(seconds) else float("nan"), "failure": run["failure"]}
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--frames", type=int, default=12, help="frames per run, the first included (default 12)")
+    parser.add_argument("--threads", type=int, default=1)
+    parser.add_argument("--module", help="path of a weft._solver extension to run instead of the installed one")
+    parser.add_argument("--json", type=Path, help="write the rows here")
+    args = parser.parse_args(argv)
+    if args.frames < 2:
+        parser.error("--frames must be at least 2")
+    if args.threads < 1:
+        parser.error("--threads must be at least 1")
+    if args.module and not Path(args.module).is_file():
+        parser.error(f"--module: {args.module} is not a file")
+    if args.module:
+        from bench.module_ab import load_module
+
+        load_module(args.module)
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for k, variant in enumerate(VARIANTS):
+            rows.append(run_variant(variant, args.frames, args.threads, Path(tmp) / f"variant_{k}"))
+    table = Table(title=f"thin limb variants, {args.frames} frames, {args.threads} thread(s)")
+    for column in ("variant", "max strain", "last frame", "s/frame", "failure"):
+        table.add_column(column)
+    for row in rows:
+        name = ", ".join(f"{key} {value}" for key, value in row["variant"].items()) or "bench scene"
+        table.add_row(name, f"{row['max_strain']:.2f}", f"{row['last_strain']:.2f}",
+                      f"{row['seconds_per_frame']:.3f}", row["failure"] or "")
+    Console(width=140).print(table)
+    if args.json:
+        args.json.parent.mkdir(parents=True, exist_ok=True)
+        args.json.write_text(json.dumps(rows, indent=1))
+        print(f"wrote {args.json}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,39 @@
+"""bench.limb_sweep: the thin limb over its variants, one row each, and its argument checks."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from bench.limb_sweep import VARIANTS, main
+
+
+def test_every_variant_runs_and_is_written(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "sweep.json"
+    assert main(["--frames", "3", "--json", str(out)]) == 0
+    rows = json.loads(out.read_text())
+    assert [row["variant"] for row in rows] == VARIANTS
+    for row in rows:
+        assert row["failure"] is None
+        assert len(row["strain_per_frame"]) == 2
+        # Strain is a length over the rest length: never below the sheet's own (1.0 before the limb arrives).
+        assert 1.0 <= row["max_strain"] < 10.0 and row["last_strain"] == row["strain_per_frame"][-1]
+        assert row["seconds_per_frame"] > 0.0
+    assert "thin limb variants" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("argv", [["--frames", "1"], ["--threads", "0"]])
+def test_bad_arguments_are_refused(argv: list[str]) -> None:
+    with pytest.raises(SystemExit) as exc:
+        main(argv)
+    assert exc.value.code == 2
+
+
+def test_a_module_that_is_not_there_is_named(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    missing = tmp_path / "missing.so"
+    with pytest.raises(SystemExit) as exc:
+        main(["--frames", "2", "--module", str(missing)])
+    assert exc.value.code == 2
+    assert f"--module: {missing} is not a file" in capsys.readouterr().err
