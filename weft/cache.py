@@ -42,6 +42,11 @@ class SolverState:
     # 3 held and sticking, 2 released); empty in a cache written before weft kept it (such a
     # resume starts with none).
     contact_flags: np.ndarray
+    # The collision stage's analysis flags (Simulation.collision_flags: GIA due, cloth/cloth
+    # analysis due, every body, contacts set aside, one entry per body watched); empty without
+    # collisions or in a cache written before weft kept them (such a resume starts as a new
+    # simulation does: the analysis due on every body).
+    collision_flags: np.ndarray
 
 
 class CacheWriter:
@@ -143,6 +148,7 @@ class CacheWriter:
             state.create_dataset("velocities", data=np.zeros((n, 3)))
             state.create_dataset("warm_start", data=np.zeros(3 * n))
             state.create_dataset("contact_flags", data=np.zeros(n, dtype=np.uint8))
+            state.create_dataset("collision_flags", shape=(0,), maxshape=(None,), dtype=np.uint8)
 
     @classmethod
     def resume(cls, path: str | Path, shot_hash: str) -> tuple[CacheWriter, SolverState | None]:
@@ -176,6 +182,7 @@ class CacheWriter:
             velocities=state["velocities"][()],
             warm_start=state["warm_start"][()],
             contact_flags=state["contact_flags"][()] if "contact_flags" in state else np.zeros(0, dtype=np.uint8),
+            collision_flags=state["collision_flags"][()] if "collision_flags" in state else np.zeros(0, dtype=np.uint8),
         )
 
     def append(
@@ -187,10 +194,12 @@ class CacheWriter:
         telemetry: FrameTelemetry,
         body_positions: list[np.ndarray] | None = None,
         contact_flags: np.ndarray | None = None,
+        collision_flags: np.ndarray | None = None,
     ) -> None:
         """body_positions: each body's vertices at this frame (stored when the cache keeps body
         motion, ignored otherwise); contact_flags: Simulation.contact_flags after the frame
-        (none decided when None or empty)."""
+        (none decided when None or empty); collision_flags: Simulation.collision_flags after it
+        (none kept when None)."""
         k = self.frames_written
         rows = [(self._positions, positions), (self._velocities, velocities)]
         if self._body_positions:
@@ -223,6 +232,10 @@ class CacheWriter:
             if "contact_flags" in state:
                 flags = state["contact_flags"]
                 flags[...] = contact_flags if contact_flags is not None and len(contact_flags) else 0
+            if "collision_flags" in state:
+                analysis = np.zeros(0, dtype=np.uint8) if collision_flags is None else np.asarray(collision_flags)
+                state["collision_flags"].resize(len(analysis), axis=0)
+                state["collision_flags"][...] = analysis
             self._file.flush()
             state["frame_index"][0] = k
             self._file.flush()

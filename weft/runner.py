@@ -87,7 +87,8 @@ class ShotRunner:
         if self.resume and self.cache_path.exists():
             writer, state = CacheWriter.resume(self.cache_path, scene.shot_hash)
             if state is not None:
-                sim.set_state(state.positions, state.velocities, state.warm_start, state.contact_flags)
+                sim.set_state(state.positions, state.velocities, state.warm_start, state.contact_flags,
+                              state.collision_flags)
                 resumed_from = state.frame_index
         else:
             writer = CacheWriter.create(self.cache_path, scene, __version__, self.threads_used)
@@ -108,7 +109,7 @@ class ShotRunner:
                     telemetry = telemetry_row(frame, advance(sim, scene, index))
                 write_start = time.perf_counter()
                 writer.append(frame, sim.positions, sim.velocities, sim.warm_start, telemetry,
-                              [body.frames[index] for body in scene.bodies], sim.contact_flags)
+                              [body.frames[index] for body in scene.bodies], sim.contact_flags, sim.collision_flags)
                 write_end = time.perf_counter()
                 summary.telemetry.append(telemetry)
                 if on_frame is not None:

@@ -10,6 +10,11 @@
 namespace py = pybind11;
 using namespace weft;
 
+namespace {
+py::array_t<std::uint8_t> uint8_array(const std::vector<std::uint8_t>& values) {
+  return py::array_t<std::uint8_t>(static_cast<py::ssize_t>(values.size()), values.data());
+}
+}  // namespace
 
 PYBIND11_MODULE(_solver, m) {
   m.doc() = "weft implicit cloth solver (C++ core)";
@@ -105,14 +110,16 @@ PYBIND11_MODULE(_solver, m) {
       .def_property_readonly("positions", &Simulation::positions)
       .def_property_readonly("velocities", &Simulation::velocities)
       .def("set_state", &Simulation::set_state, py::arg("positions"), py::arg("velocities"),
-           py::arg("warm_start") = VectorX(), py::arg("contact_flags") = std::vector<std::uint8_t>())
+           py::arg("warm_start") = VectorX(), py::arg("contact_flags") = std::vector<std::uint8_t>(),
+           py::arg("collision_flags") = std::vector<std::uint8_t>())
+      .def_property_readonly(
+          "collision_flags", [](const Simulation& s) { return uint8_array(s.collision_flags()); },
+          "What the collision stage's next analysis is due to do (GIA due, cloth/cloth analysis due, every body, "
+          "contacts set aside, then one entry per body watched), each 0 or 1; empty without collisions. Part of a "
+          "resumable state.")
       .def_property_readonly("warm_start", &Simulation::warm_start)
       .def_property_readonly(
-          "contact_flags",
-          [](const Simulation& s) {
-            const std::vector<std::uint8_t> flags = s.contact_flags();
-            return py::array_t<std::uint8_t>(static_cast<py::ssize_t>(flags.size()), flags.data());
-          },
+          "contact_flags", [](const Simulation& s) { return uint8_array(s.contact_flags()); },
           "Per cloth vertex, what the last step's contact constraints decided: 1 held, 3 held and sticking, 2 released, 0 "
           "neither (empty before the first step or without collisions); part of a resumable state.")
       .def("energies", &Simulation::energies)

@@ -144,6 +144,35 @@ CollisionSystem::CollisionSystem(const Faces& cloth_faces, const Positions& x, c
 
 CollisionSystem::~CollisionSystem() = default;
 
+std::vector<std::uint8_t> CollisionSystem::analysis_flags() const {
+  const size_t bodies = detection_.bodies().size();
+  std::vector<std::uint8_t> out{static_cast<std::uint8_t>(gia_due_), static_cast<std::uint8_t>(self_due_),
+                                static_cast<std::uint8_t>(gia_all_bodies_), static_cast<std::uint8_t>(contacts_aside_)};
+  for (size_t b = 0; b < bodies; ++b) out.push_back(b < gia_watch_.size() && gia_watch_[b] ? 1 : 0);
+  return out;
+}
+
+void CollisionSystem::check_analysis_flags(const std::vector<std::uint8_t>& flags) const {
+  if (flags.empty()) return;
+  const size_t bodies = detection_.bodies().size();
+  if (flags.size() != 4 + bodies)
+    throw std::invalid_argument("collision_flags must be empty or have 4 + one entry per body (" +
+                                std::to_string(4 + bodies) + "), not " + std::to_string(flags.size()));
+  for (std::uint8_t f : flags)
+    if (f > 1) throw std::invalid_argument("collision_flags entries must be 0 or 1");
+}
+
+void CollisionSystem::set_analysis_flags(const std::vector<std::uint8_t>& flags) {
+  check_analysis_flags(flags);
+  if (flags.empty()) return;
+  gia_due_ = flags[0] != 0;
+  self_due_ = flags[1] != 0;
+  gia_all_bodies_ = flags[2] != 0;
+  contacts_aside_ = flags[3] != 0;
+  aside_local_ = false;  // what a frame end leaves (end_frame); aside_ is looked at only when set
+  gia_watch_.assign(flags.begin() + 4, flags.end());
+}
+
 const BodyPinchTracker* CollisionSystem::pinch() const { return pinch_ ? &pinch_->tracker() : nullptr; }
 
 void CollisionSystem::body_positions(const std::vector<KinematicBody>& bodies, double alpha0, double alpha1) {

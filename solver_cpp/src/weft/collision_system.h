@@ -83,6 +83,16 @@ class CollisionSystem {
   void set_contact_flags(const std::vector<std::uint8_t>& flags, int vertex_count) {
     constraints_.set_flags(flags, vertex_count);
   }
+  // What the next step's analysis is due to do, as the last step (or frame end) left it:
+  // {gia_due_, self_due_, gia_all_bodies_, contacts_aside_, then gia_watch_ per body}, each 0
+  // or 1. Part of the state a resumed run restores: a new system starts with the analysis due
+  // on every body (a shot's first step), which a run resumed from a clean frame would not
+  // repeat bit for bit. Pinch tracking (body_pinch.h) is not in it.
+  std::vector<std::uint8_t> analysis_flags() const;
+  // Throws std::invalid_argument unless flags is empty (keep the new system's) or has 4 + body
+  // count entries, each 0 or 1.
+  void set_analysis_flags(const std::vector<std::uint8_t>& flags);
+  void check_analysis_flags(const std::vector<std::uint8_t>& flags) const;
   CollisionTelemetry end_frame(const Positions& x, const std::vector<KinematicBody>& bodies);
   const CollisionSettings& settings() const { return settings_; }
   bool self_collision() const { return detection_.any_self(); }

@@ -134,17 +134,27 @@ std::vector<std::uint8_t> Simulation::contact_flags() const {
   return collisions_ ? collisions_->contact_flags() : std::vector<std::uint8_t>{};
 }
 
+std::vector<std::uint8_t> Simulation::collision_flags() const {
+  return collisions_ ? collisions_->analysis_flags() : std::vector<std::uint8_t>{};
+}
+
 void Simulation::set_state(const Positions& x, const Positions& v, const VectorX& warm_start,
-                           const std::vector<std::uint8_t>& contact_flags) {
+                           const std::vector<std::uint8_t>& contact_flags,
+                           const std::vector<std::uint8_t>& collision_flags) {
   if (x.rows() != x_.rows() || v.rows() != v_.rows())
     throw std::invalid_argument("state must have one row per vertex (" + std::to_string(x_.rows()) + ")");
   if (warm_start.size() != 0 && warm_start.size() != 3 * x_.rows())
     throw std::invalid_argument("warm_start must be empty or have 3 entries per vertex");
   if (!x.allFinite() || !v.allFinite()) throw std::invalid_argument("state must be finite");
-  if (collisions_)
-    collisions_->set_contact_flags(contact_flags, static_cast<int>(x_.rows()));  // checks before any change
-  else if (!contact_flags.empty() && std::any_of(contact_flags.begin(), contact_flags.end(), [](auto f) { return f != 0; }))
+  if (collisions_) {
+    collisions_->check_analysis_flags(collision_flags);  // both checked before any change
+    collisions_->set_contact_flags(contact_flags, static_cast<int>(x_.rows()));
+    collisions_->set_analysis_flags(collision_flags);
+  } else if (!contact_flags.empty() && std::any_of(contact_flags.begin(), contact_flags.end(), [](auto f) { return f != 0; })) {
     throw std::invalid_argument("contact_flags given for a simulation without collisions");
+  } else if (!collision_flags.empty()) {
+    throw std::invalid_argument("collision_flags given for a simulation without collisions");
+  }
   x_ = x;
   v_ = v;
   if (warm_start.size() == 0) dv_.setZero(); else dv_ = warm_start;

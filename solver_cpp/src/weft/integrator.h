@@ -105,8 +105,12 @@ class Simulation {
   // (ContactConstraints::flags; empty without collisions or before the first step): restored
   // with the state for the same reason.
   std::vector<std::uint8_t> contact_flags() const;
+  // The collision stage's analysis flags (CollisionSystem::analysis_flags; empty without
+  // collisions): restored with the state for the same reason.
+  std::vector<std::uint8_t> collision_flags() const;
   void set_state(const Positions& x, const Positions& v, const VectorX& warm_start,
-                 const std::vector<std::uint8_t>& contact_flags = {});
+                 const std::vector<std::uint8_t>& contact_flags = {},
+                 const std::vector<std::uint8_t>& collision_flags = {});
   Energies energies() const;
 
   const ClothMesh& mesh() const { return mesh_; }
