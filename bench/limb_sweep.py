@@ -1,6 +1,6 @@
 """The thin limb (`scenes.contact.thin_limb`: a hanging sheet a limb sweeps through) over variants
 of the limb's speed and thickness, the cloth's friction and the substeps: per variant the
-largest edge strain of any frame, the strain of the last frame (the limb stands from frame 7
+largest edge strain of any frame, the strain of the last frame (the limb stands from frame 6
 at 3 m/s: a sheet it carried stays stretched) and s/frame. One scene is chaotic; a rule for
 cloth on fast bodies is judged over these variants (docs/collisions.md, twenty-fourth session).
 

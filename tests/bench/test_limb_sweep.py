@@ -18,8 +18,11 @@ def test_every_variant_runs_and_is_written(tmp_path: Path, capsys: pytest.Captur
     for row in rows:
         assert row["failure"] is None
         assert len(row["strain_per_frame"]) == 2
-        # Strain is a length over the rest length: never below the sheet's own (1.0 before the limb arrives).
-        assert 1.0 <= row["max_strain"] < 10.0 and row["last_strain"] == row["strain_per_frame"][-1]
+        assert row["max_strain"] == max(row["strain_per_frame"])
+        assert row["last_strain"] == row["strain_per_frame"][-1]
+        # The limb starts 0.25 m behind the sheet: at 4 m/s at most it has not reached it after
+        # one frame, and the sheet hangs at its rest lengths.
+        assert abs(row["strain_per_frame"][0] - 1.0) < 0.02, row
         assert row["seconds_per_frame"] > 0.0
     assert "thin limb variants" in capsys.readouterr().out
 
