@@ -60,9 +60,9 @@ def main(argv: list[str] | None = None) -> int:
         parser.error("--frames must be at least 2")
     if args.threads < 1:
         parser.error("--threads must be at least 1")
-    if args.module and not Path(args.module).is_file():
-        parser.error(f"--module: {args.module} is not a file")
     if args.module:
+        if not Path(args.module).is_file():
+            parser.error(f"--module: {args.module} is not a file")
         from bench.module_ab import load_module
 
         load_module(args.module)
