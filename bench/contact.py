@@ -3,7 +3,7 @@ weft and, with `--peer blender`, by Blender cloth in the same run (same scene, s
 same thread count), one table row per (scene, solver), metrics from `bench.contact_metrics`.
 
     python -m bench.contact [--json PATH] [--peer blender] [--scenes a,b] [--frames N] [--threads 2] [--repeat N]
-                            [--perturb N]
+                            [--perturb N] [--module PATH]
 
 s/frame is the wall time of each simulated frame (weft: `Simulation.advance_frame`; Blender:
 `scene.frame_set`), mean and max over the frames after the initial one (the setup, building
@@ -329,6 +329,8 @@ def main(argv: list[str] | None = None) -> int:
                              "worst frame, frames with intersections, halvings and strain over all copies")
     parser.add_argument("--self-cost", action="store_true",
                         help="also run weft with self-collision off: the cost of self-collision per scene")
+    parser.add_argument("--module", help="path of a weft._solver extension to run instead of the installed one "
+                        "(another build, measured against this one in a run of its own)")
     args = parser.parse_args(argv)
     names = args.scenes.split(",") if args.scenes else list(DEFAULT_FRAMES)
     unknown = [n for n in names if n not in DEFAULT_FRAMES]
@@ -340,6 +342,12 @@ def main(argv: list[str] | None = None) -> int:
         parser.error("--perturb must be 0 (off) or a positive number of copies")
     if args.frames is not None and args.frames < 2:
         parser.error("--frames must be at least 2 (the initial state and one simulated frame)")
+    if args.module:
+        if not Path(args.module).is_file():
+            parser.error(f"--module: {args.module} is not a file")
+        from bench.solver_module import load_module
+
+        load_module(args.module)
     if args.peer == "blender":
         try:
             import importlib.util
@@ -375,7 +383,7 @@ def main(argv: list[str] | None = None) -> int:
         args.json.parent.mkdir(parents=True, exist_ok=True)
         report = {"threads": args.threads, "peer": args.peer, "repeat": args.repeat, "blender_mass": args.blender_mass, "cpus": os.cpu_count(), "machine": platform.platform(),
                   "load_average_before": load_before, "load_average_after": os.getloadavg(), "rows": rows,
-                  "perturb": args.perturb, "perturbed": perturbed}
+                  "perturb": args.perturb, "perturbed": perturbed, "module": args.module}
         args.json.write_text(json.dumps(report, indent=1, default=float))
         console.print(f"wrote {args.json}")
     return 0

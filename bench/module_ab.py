@@ -36,6 +36,8 @@ import time  # noqa: E402
 from pathlib import Path  # noqa: E402
 from typing import Any  # noqa: E402
 
+from bench.solver_module import load_module  # noqa: E402
+
 SHOT_SUFFIXES = (".yaml", ".yml", ".json")  # --scene given as a shot file
 SHEET_PREFIX = "sheet:"  # --scene sheet:N, `weft bench solver`'s N x N sheet
 SHEET_FRAMES = 3
@@ -51,21 +53,6 @@ COLUMNS = ("build_seconds_per_frame", "solve_seconds_per_frame", "setup_seconds_
            "collision_seconds_per_frame", "collision_broad_phase_seconds_per_frame",
            "collision_proximity_seconds_per_frame", "gia_seconds_per_frame", "ccd_candidates_per_frame",
            "broad_phase_pairs_per_frame", "cg_iterations_per_substep")
-
-
-def load_module(path: str) -> None:
-    """Makes the extension at `path` the `weft._solver` every later import gets."""
-    import importlib.util
-
-    import weft
-
-    spec = importlib.util.spec_from_file_location("weft._solver", path)
-    if spec is None or spec.loader is None:
-        raise SystemExit(f"--module: cannot load {path} as an extension module")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    sys.modules["weft._solver"] = module
-    weft._solver = module  # type: ignore[attr-defined]
 
 
 def child(scene_name: str, module: str, frames: int, threads: int, positions: str | None) -> dict[str, Any]:

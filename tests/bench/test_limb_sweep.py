@@ -27,16 +27,17 @@ def test_every_variant_runs_and_is_written(tmp_path: Path, capsys: pytest.Captur
     assert "thin limb variants" in capsys.readouterr().out
 
 
-@pytest.mark.parametrize("argv", [["--frames", "1"], ["--threads", "0"]])
+def test_the_cg_tolerance_reaches_every_variant(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "sweep.json"
+    assert main(["--frames", "2", "--cg-tolerance", "1e-5", "--json", str(out)]) == 0
+    rows = json.loads(out.read_text())
+    assert [row["cg_tolerance"] for row in rows] == [1e-5] * len(VARIANTS)
+    assert "CG tolerance 1e-05" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("argv", [["--frames", "1"], ["--threads", "0"], ["--cg-tolerance", "0"],
+                                  ["--cg-tolerance", "1.5"]])
 def test_bad_arguments_are_refused(argv: list[str]) -> None:
     with pytest.raises(SystemExit) as exc:
         main(argv)
     assert exc.value.code == 2
-
-
-def test_a_module_that_is_not_there_is_named(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    missing = tmp_path / "missing.so"
-    with pytest.raises(SystemExit) as exc:
-        main(["--frames", "2", "--module", str(missing)])
-    assert exc.value.code == 2
-    assert f"--module: {missing} is not a file" in capsys.readouterr().err

@@ -25,7 +25,7 @@ def test_runner_and_frame_loop_give_the_same_state(tmp_path: Path) -> None:
     scene = make_scene(twist_shot(tmp_path, n=6, frames=4), tmp_path)
     ShotRunner(scene, tmp_path / "c.h5").run()
     for index, sim, t in simulate(scene):
-        assert t.substeps == scene.shot.substeps
+        assert t.substeps >= scene.shot.substeps  # more where a substep was halved
     assert index == scene.frame_count - 1
     with open_cache_reader(tmp_path / "c.h5") as f:
         assert np.array_equal(f["state/positions"][()], sim.positions)
