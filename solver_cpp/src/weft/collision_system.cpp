@@ -256,6 +256,7 @@ void CollisionSystem::redetect(std::vector<int>& hits) {
 void CollisionSystem::respond(const Positions& x, Positions& v, double h, const std::vector<KinematicBody>& bodies,
                               double alpha0, double alpha1) {
   step_.begin(x, v, h);
+  step_.corner_edges = constraints_.sharp_edges();
   abandoned_ = false;
   body_positions(bodies, alpha0, alpha1);
   constraints_.friction(step_, props_);

@@ -5,6 +5,7 @@
 // contact data, fixed for a simulation.
 #pragma once
 
+#include <array>
 #include <vector>
 
 #include "weft/collision/collision_types.h"
@@ -59,6 +60,15 @@ struct CollisionStep {
   // (ContactConstraints::clear_vertices); the point-by-point list skips such vertices.
   const std::vector<char>* clear_vertices = nullptr;
   int ccd_iteration = 0;      // CCD impulse pass within the step
+  // Per body, its sharp edges and face normals at the step's start (ContactConstraints::
+  // sharp_edges), through the whole step: GIA's recovery finds with them the cloth edges that
+  // cut a body's corner (SharpEdges::corner_cut). Null when the contact constraints did not run.
+  const std::vector<SharpEdges>* corner_edges = nullptr;
+  // The cloth edges GIA's recovery found cutting a body's corner this step, as (lower vertex,
+  // higher vertex, body), sorted: it moves them out, and the proximity response leaves their
+  // edge pairs with that body alone (pushed along their closest points, into the body, they
+  // were carried with it).
+  std::vector<std::array<int, 3>> corner_cuts;
 
   void begin(const Positions& x0, Positions& v0, double step) {
     x = &x0;
@@ -66,8 +76,10 @@ struct CollisionStep {
     h = step;
     x_end = x0 + step * v0;
     changed.assign(x0.rows(), 0);
+    corner_cuts.clear();
   }
   void end() {
+    corner_edges = nullptr;
     x = nullptr;
     v = nullptr;
   }

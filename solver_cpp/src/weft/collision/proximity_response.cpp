@@ -26,6 +26,12 @@ int ProximityResponse::apply(CollisionStep& step, const ContactProperties& props
     for (int i = 0; i < 4; ++i) s[i] = step.start_of(pair.point[i], pair.body);
     if (!boxes_within(s, s, pair.edge_edge, th)) continue;
     distance[k] = pair_weights(s, pair.edge_edge, weights[k]);
+    // A cloth edge GIA's recovery moves out of a body's corner (CollisionStep::corner_cuts).
+    if (pair.edge_edge && pair.body >= 0 && !step.corner_cuts.empty() &&
+        std::binary_search(step.corner_cuts.begin(), step.corner_cuts.end(),
+                           std::array<int, 3>{std::min(pair.point[0], pair.point[1]),
+                                              std::max(pair.point[0], pair.point[1]), pair.body}))
+      distance[k] = std::numeric_limits<double>::infinity();
   }
   // Gauss-Seidel sweeps over the pairs within the thickness: a pair's impulse changes the
   // velocities of its points, and so the normal velocities of the pairs that share them (friction

@@ -21,6 +21,23 @@ SharpEdges::SharpEdges(const Faces& faces) {
         far_[it->second] = opposite;
       }
     }
+  ordered_.reserve(index.size());
+  for (const auto& entry : index) ordered_.push_back(entry.second);  // the map is in vertex order
+}
+
+bool SharpEdges::corner_cut(int a, int b, const Vec3& on_edge, const Vec3& cloth_a, const Vec3& cloth_b,
+                            const Vec3& cloth_point) const {
+  if (normals_.empty()) return false;
+  const std::array<int, 2> key{std::min(a, b), std::max(a, b)};
+  const auto it = std::lower_bound(ordered_.begin(), ordered_.end(), key,
+                                   [&](int edge, const std::array<int, 2>& k) { return edges_[edge] < k; });
+  if (it == ordered_.end() || edges_[*it] != key || !std::binary_search(sharp_.begin(), sharp_.end(), *it)) return false;
+  const auto [f0, f1] = faces_[*it];
+  if (f1 < 0) return false;
+  const Vec3& n0 = normals_[f0];
+  const Vec3& n1 = normals_[f1];
+  const auto below_both = [&](const Vec3& p) { return (p - on_edge).dot(n0) < 0.0 && (p - on_edge).dot(n1) < 0.0; };
+  return below_both(cloth_point) && !below_both(cloth_a) && !below_both(cloth_b);
 }
 
 int SharpEdges::update(const Faces& faces, const Positions& x, double longest_cloth_edge,

@@ -31,6 +31,7 @@ class SharpEdges {
   const AabbTree& tree() const { return tree_; }
   // Leaf k of the tree: the k-th sharp edge's vertices, and its sharpness |n0 - n1| (2 on a border).
   const std::array<int, 2>& edge(int leaf) const { return edges_[sharp_[leaf]]; }
+  const std::array<int, 2>& faces(int leaf) const { return faces_[sharp_[leaf]]; }  // [1] = -1: a border
   double sharpness(int leaf) const { return sharpness_[leaf]; }
   double sharpest() const { return sharpest_; }
   // Whether an edge of this sharpness can catch a cloth edge of this length kept `separation` off.
@@ -47,11 +48,22 @@ class SharpEdges {
   void advancing(const Positions& start, const Positions& end, double least,
                  std::vector<std::array<int, 2>>& out) const;
   double separation() const { return separation_; }  // update's smallest separation
+  // Whether a cloth edge from cloth_a to cloth_b cuts the corner of the body at its edge (a, b),
+  // one sharp at update (with its ends kept off, a cloth edge does not reach a blunt one), at
+  // update's positions: its point cloth_point nearest to that edge's point on_edge lies below
+  // the planes of both of the edge's faces, and each end above at least one of them, so that it
+  // goes in through one face and out through the other. A contact along those nearest points
+  // would hold such a cloth edge on the wrong side; its way out is the opposite one. A cloth
+  // edge with an end inside the wedge (through the body, or across a limb thinner than it) does
+  // not cut the corner. False for a border, an edge not in the faces, and before update().
+  bool corner_cut(int a, int b, const Vec3& on_edge, const Vec3& cloth_a, const Vec3& cloth_b,
+                  const Vec3& cloth_point) const;
 
  private:
   std::vector<std::array<int, 2>> edges_;   // vertices, lower first
   std::vector<std::array<int, 2>> faces_;   // the edge's faces; [1] = -1 on a border
   std::vector<int> far_;                    // the second face's corner off the edge (-1 on a border)
+  std::vector<int> ordered_;                // edge ids by their vertices (corner_cut's lookup)
   std::vector<Vec3> normals_;               // per update: unit face normals
   std::vector<Aabb> boxes_;                 // per update: per sharp edge
   std::vector<int> sharp_;                  // per update: sharp edge ids, increasing

@@ -26,7 +26,8 @@ class GiaBodyDriver {
   // returns whether the cloth is in intersection with one (paths or vertices inside).
   bool colour(const CollisionStep& step, int threads, CollisionTelemetry& frame,
               const std::vector<char>* only = nullptr);
-  // Recovery pushes (and pinch grips) on step.v.
+  // Recovery pushes (and pinch grips) on step.v: contour vertices inside a body, and cloth
+  // edges that cut a body's corner (with step.corner_edges).
   void recover(CollisionStep& step, const ContactProperties& props, PinchDriver* pinch, CollisionTelemetry& frame);
   void clear();
 
@@ -80,6 +81,10 @@ class GiaBodyDriver {
   // Boxes of `faces` at x into `boxes`, and the tree over them: built when empty, else refitted
   // (the topology is fixed; the contact detection's trees live the same way).
   static void fit_tree(AabbTree& tree, std::vector<Aabb>& boxes, const Positions& x, const Faces& faces);
+  // recover()'s pushes of cloth edges cutting a corner of `body` (edges: its SharpEdges);
+  // returns the vertices pushed.
+  int push_corner_cuts(CollisionStep& step, const ContactProperties& props, PinchDriver* pinch, int body,
+                       const SharpEdges& edges);
   std::vector<std::vector<int>> cloth_neighbours_;  // contour test
   std::vector<char> vertex_collide_;                // on some body-colliding face
   Faces collide_faces_;                             // the cloth faces that collide with bodies
