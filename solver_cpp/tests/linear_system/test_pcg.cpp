@@ -7,9 +7,17 @@
 
 using namespace weft;
 
-TEST(Pcg, SolvesSpdSystemAndHonoursConstraintsExactly) {
-  const int n = 30;  // 10 vertices
-  std::mt19937 gen(7);
+namespace {
+
+// A random dense SPD system of 10 vertices, its diagonal blocks and a rhs.
+struct DenseSystem {
+  Eigen::MatrixXd a;
+  VectorX rhs;
+  std::vector<Mat3> diag;
+};
+
+DenseSystem dense_system(int n, unsigned seed) {
+  std::mt19937 gen(seed);
   std::normal_distribution<double> normal;
   Eigen::MatrixXd b_mat(n, n);
   for (int i = 0; i < n; ++i)
@@ -19,6 +27,14 @@ TEST(Pcg, SolvesSpdSystemAndHonoursConstraintsExactly) {
   for (int i = 0; i < n; ++i) rhs[i] = normal(gen);
   std::vector<Mat3> diag(n / 3);
   for (int i = 0; i < n / 3; ++i) diag[i] = a.block<3, 3>(3 * i, 3 * i);
+  return {a, rhs, diag};
+}
+
+}  // namespace
+
+TEST(Pcg, SolvesSpdSystemAndHonoursConstraintsExactly) {
+  const int n = 30;  // 10 vertices
+  const auto [a, rhs, diag] = dense_system(n, 7);
   ConstraintFilter filter;
   filter.reset(n / 3);
   filter.constrain_fully(2, Vec3(1.0, -2.0, 0.5));
@@ -34,4 +50,32 @@ TEST(Pcg, SolvesSpdSystemAndHonoursConstraintsExactly) {
   VectorX r = a * x - rhs;
   filter.apply(r);
   EXPECT_LT(r.norm(), 1e-9 * rhs.norm());
+}
+
+// The warm start is scaled to its best multiple (least energy-norm error along it): one pointing
+// away from the solution (a resting cloth's last velocity change often does) starts CG as a
+// zero start does, bit for bit, and one that is a multiple of the solution needs no iteration.
+TEST(Pcg, ScalesTheWarmStartToItsBestMultiple) {
+  const int n = 30;
+  const auto [a, rhs, diag] = dense_system(n, 11);
+  ConstraintFilter filter;
+  filter.reset(n / 3);
+  filter.constrain_direction(4, Vec3(0, 1, 1).normalized(), -0.5);
+  auto apply = [&a](const VectorX& in, VectorX& out) { out = a * in; };
+  const PcgSettings settings{1e-10, 200};
+  VectorX from_zero = VectorX::Zero(n);
+  const PcgStats zero_stats = prefiltered_pcg(apply, diag, filter, rhs, from_zero, settings);
+  ASSERT_TRUE(zero_stats.converged);
+  const VectorX solution = from_zero;
+
+  VectorX away = -(solution - filter.prescribed);  // y . rhs < 0: scaled to zero
+  const PcgStats away_stats = prefiltered_pcg(apply, diag, filter, rhs, away, settings);
+  EXPECT_EQ(away_stats.iterations, zero_stats.iterations);
+  EXPECT_EQ(away, from_zero);
+
+  VectorX twice = 2.0 * (solution - filter.prescribed) + filter.prescribed;
+  const PcgStats twice_stats = prefiltered_pcg(apply, diag, filter, rhs, twice, PcgSettings{1e-8, 200});
+  EXPECT_EQ(twice_stats.iterations, 0);
+  EXPECT_TRUE(twice_stats.converged);
+  EXPECT_LT((twice - solution).norm(), 1e-8 * solution.norm());
 }

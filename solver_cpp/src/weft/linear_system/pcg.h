@@ -181,9 +181,19 @@ PcgStats prefiltered_pcg(const ApplyMatrix& apply_matrix, const std::vector<Mat3
   }
   multiply(y, tmp);
   apply_filter(tmp);
+  // The warm start scaled to its best multiple, alpha y with alpha = (y . rhs) / (y . S A S y):
+  // the least error in the energy norm along y (never more than y's or a zero start's). A
+  // previous substep's velocity change on cloth come to rest is often more wrong than zero
+  // (docs/multigrid.md, "Warm start").
+  const auto fit = vertex_sums(Two{}, [&](std::int64_t i, std::array<double, 2>& s) {
+    s[0] += y.segment<3>(3 * i).dot(tmp.segment<3>(3 * i));
+    s[1] += y.segment<3>(3 * i).dot(rhs.segment<3>(3 * i));
+  });
+  const double scale = fit[0] > 0.0 && std::isfinite(fit[1] / fit[0]) ? std::max(fit[1] / fit[0], 0.0) : 1.0;
   // r = rhs - S A S y; z = P r; p = z.
   auto start = vertex_sums(Two{}, [&](std::int64_t i, std::array<double, 2>& s) {
-    const Vec3 ri = rhs.segment<3>(3 * i) - tmp.segment<3>(3 * i);
+    y.segment<3>(3 * i) *= scale;
+    const Vec3 ri = rhs.segment<3>(3 * i) - scale * tmp.segment<3>(3 * i);
     r.segment<3>(3 * i) = ri;
     s[0] += ri.squaredNorm();
     if constexpr (!custom) {
