@@ -286,6 +286,8 @@ int GiaBodyDriver::push_corner_cuts(CollisionStep& step, const ContactProperties
       if (j <= i || !free_end(j)) continue;
       if (props.inverse_mass[i] == 0.0 && props.inverse_mass[j] == 0.0) continue;
       const Vec3 pa = row3(x, i), pb = row3(x, j);
+      // The body edge's point lies within half the cloth edge's length plus the depth of its
+      // midpoint: a search radius of three half lengths finds cuts up to a length deep.
       double radius = 1.5 * (pb - pa).norm();
       double depth = 0.0, along = 0.0, at = 0.0;
       int cut = -1;
