@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from scenes.builders import grid_sheet, inline_mesh, sheet_shot
-from scenes.collision import bar_mesh, tube_mesh
+from scenes.collision import bar_mesh, box_mesh, tube_mesh
 
 RADIUS = 0.01  # the "bone"'s radius, m
 
@@ -55,6 +55,29 @@ def through_shot(height: float = 0.02, depth: float = -0.02, frames: int = 12, g
     doc["cloth"][0]["rest"] = {"kind": "positions", "positions": rest.tolist()}
     tube_v, tube_f = tube_mesh(RADIUS, 0.5, sections=16, segments=20)
     doc["bodies"] = [{"name": "bone", "mesh": inline_mesh(tube_v, tube_f)}]
+    if gia is not None:
+        doc["features"] = {"gia": gia}
+    return doc
+
+
+def corner_cut_shot(depth: float = 0.003, frames: int = 8, gia: bool | None = None) -> dict:
+    """A flat strip (2 x 6 vertices, 10 cm long, 4 cm across) across the top front edge of a
+    0.2 m box (the edge along x at y = z = 0.1), in the plane at 45 degrees to both faces, its
+    middle line `depth` inside the corner: one row in front of the front face, one above the
+    top, so every cross edge goes in through one face and out through the other with no vertex
+    inside (docs/intersection-analysis.md, point 5). No gravity, no drag: nothing but the
+    collision stage moves it."""
+    box_v, box_f = box_mesh((0.2, 0.2, 0.2), (0.0, 0.0, 0.0))
+    across = np.array([0.0, 1.0, -1.0]) / np.sqrt(2.0)
+    middle = np.array([0.0, 0.1, 0.1]) - depth * np.array([0.0, 1.0, 1.0]) / np.sqrt(2.0)
+    xs = np.linspace(-0.05, 0.05, 6)
+    vertices = np.array([middle + [x, 0.0, 0.0] + side * 0.02 * across for side in (-1.0, 1.0) for x in xs])
+    n = len(xs)
+    faces = np.array([f for i in range(n - 1) for f in ([i, i + 1, n + i + 1], [i, n + i + 1, n + i])])
+    doc = {"name": "corner_cut", "fps": 24.0, "frame_range": [1, frames], "substeps": 4,
+           "environment": {"gravity": [0.0, 0.0, 0.0], "air_drag": 0.0},
+           "cloth": [{"name": "strip", "mesh": inline_mesh(vertices, faces)}],
+           "bodies": [{"name": "box", "mesh": inline_mesh(box_v, box_f)}]}
     if gia is not None:
         doc["features"] = {"gia": gia}
     return doc

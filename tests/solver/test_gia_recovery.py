@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from scenes.gia import RADIUS, bone_shot, through_shot
+from scenes.gia import RADIUS, bone_shot, corner_cut_shot, through_shot
 from weft.cache import open_cache_reader
 from weft.runner import ShotRunner
 from weft.solver_setup import collision_switches
@@ -85,6 +85,32 @@ def test_patch_wholly_through_a_bone_comes_back_through_the_coloured_segment(hei
 
 def test_patch_wholly_through_stays_through_without_gia():
     counts = [t.intersections for index, sim, t in simulate(through_shot(frames=6, gia=False))]
+    assert min(counts) > 0, counts
+
+
+def test_a_strip_across_a_boxs_corner_with_no_vertex_inside_is_pushed_out():
+    """Cloth edges that cut a body's corner (no vertex inside, nothing coloured) leave it in the
+    first frame: GIA's recovery pushes their ends out of the corner, away from the body edge."""
+    doc = corner_cut_shot(depth=0.003)
+    box_v = np.asarray(doc["bodies"][0]["mesh"]["vertices"])
+    box_f = np.asarray(doc["bodies"][0]["mesh"]["faces"])
+    start = np.asarray(doc["cloth"][0]["mesh"]["vertices"])
+    assert (convex_depth(start, box_v, box_f) < 0).sum() == 0  # only edges through the corner
+    rows = []
+    for index, sim, t in simulate(doc):
+        rows.append((t.intersections, t.gia_pushed_vertices))
+        x = np.array(sim.positions)
+    assert rows[0][1] > 0 and all(count == 0 for count, pushed in rows), rows
+    assert convex_depth(x, box_v, box_f).min() > 0.0
+    # Out the way it was nearer to: along the corner's outward diagonal (+y, +z), not sideways.
+    moved = x.mean(axis=0) - start.mean(axis=0)
+    assert moved[1] > 0.003 and moved[2] > 0.003 and abs(moved[0]) < 0.1 * moved[1], moved
+
+
+def test_without_gia_the_strip_across_the_corner_stays():
+    """The control: with GIA off nothing brings the strip out (the contacts along its closest
+    points to the box edge point into the box)."""
+    counts = [t.intersections for index, sim, t in simulate(corner_cut_shot(gia=False))]
     assert min(counts) > 0, counts
 
 
