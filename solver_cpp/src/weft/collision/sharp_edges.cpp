@@ -21,18 +21,11 @@ SharpEdges::SharpEdges(const Faces& faces) {
         far_[it->second] = opposite;
       }
     }
-  ordered_.reserve(index.size());
-  for (const auto& entry : index) ordered_.push_back(entry.second);  // the map is in vertex order
 }
 
-bool SharpEdges::corner_cut(int a, int b, const Vec3& on_edge, const Vec3& cloth_a, const Vec3& cloth_b,
+bool SharpEdges::corner_cut(int leaf, const Vec3& on_edge, const Vec3& cloth_a, const Vec3& cloth_b,
                             const Vec3& cloth_point) const {
-  if (normals_.empty()) return false;
-  const std::array<int, 2> key{std::min(a, b), std::max(a, b)};
-  const auto it = std::lower_bound(ordered_.begin(), ordered_.end(), key,
-                                   [&](int edge, const std::array<int, 2>& k) { return edges_[edge] < k; });
-  if (it == ordered_.end() || edges_[*it] != key || !std::binary_search(sharp_.begin(), sharp_.end(), *it)) return false;
-  const auto [f0, f1] = faces_[*it];
+  const auto [f0, f1] = faces(leaf);
   if (f1 < 0) return false;
   const Vec3& n0 = normals_[f0];
   const Vec3& n1 = normals_[f1];

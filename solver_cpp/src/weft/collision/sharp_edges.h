@@ -48,22 +48,21 @@ class SharpEdges {
   void advancing(const Positions& start, const Positions& end, double least,
                  std::vector<std::array<int, 2>>& out) const;
   double separation() const { return separation_; }  // update's smallest separation
-  // Whether a cloth edge from cloth_a to cloth_b cuts the corner of the body at its edge (a, b),
-  // one sharp at update (with its ends kept off, a cloth edge does not reach a blunt one), at
-  // update's positions: its point cloth_point nearest to that edge's point on_edge lies below
-  // the planes of both of the edge's faces, and each end above at least one of them, so that it
-  // goes in through one face and out through the other. A contact along those nearest points
-  // would hold such a cloth edge on the wrong side; its way out is the opposite one. A cloth
-  // edge with an end inside the wedge (through the body, or across a limb thinner than it) does
-  // not cut the corner. False for a border, an edge not in the faces, and before update().
-  bool corner_cut(int a, int b, const Vec3& on_edge, const Vec3& cloth_a, const Vec3& cloth_b,
+  // Whether a cloth edge from cloth_a to cloth_b cuts the body's corner at sharp edge `leaf`
+  // (with its ends kept off, a cloth edge does not reach a blunt one), at update's positions:
+  // its point cloth_point nearest to that edge's point on_edge lies below the planes of both of
+  // the edge's faces, and each end above at least one of them, so that it goes in through one
+  // face and out through the other. A contact along those nearest points would hold such a
+  // cloth edge on the wrong side; its way out is the opposite one. A cloth edge with an end
+  // inside the wedge (through the body, or across a limb thinner than it) does not cut the
+  // corner; nor is a border cut.
+  bool corner_cut(int leaf, const Vec3& on_edge, const Vec3& cloth_a, const Vec3& cloth_b,
                   const Vec3& cloth_point) const;
 
  private:
   std::vector<std::array<int, 2>> edges_;   // vertices, lower first
   std::vector<std::array<int, 2>> faces_;   // the edge's faces; [1] = -1 on a border
   std::vector<int> far_;                    // the second face's corner off the edge (-1 on a border)
-  std::vector<int> ordered_;                // edge ids by their vertices (corner_cut's lookup)
   std::vector<Vec3> normals_;               // per update: unit face normals
   std::vector<Aabb> boxes_;                 // per update: per sharp edge
   std::vector<int> sharp_;                  // per update: sharp edge ids, increasing

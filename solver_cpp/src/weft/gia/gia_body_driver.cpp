@@ -297,7 +297,7 @@ int GiaBodyDriver::push_corner_cuts(CollisionStep& step, const ContactProperties
         double s_cloth, t_body;
         const double d = segment_segment_distance(pa, pb, q0, q1, s_cloth, t_body);
         if (!(s_cloth > 0.0 && s_cloth < 1.0 && t_body > 0.0 && t_body < 1.0) || d <= depth) return;
-        if (!sharp.corner_cut(be[0], be[1], (1.0 - t_body) * q0 + t_body * q1, pa, pb, (1.0 - s_cloth) * pa + s_cloth * pb))
+        if (!sharp.corner_cut(leaf, (1.0 - t_body) * q0 + t_body * q1, pa, pb, (1.0 - s_cloth) * pa + s_cloth * pb))
           return;
         depth = d;
         along = s_cloth;
