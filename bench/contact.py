@@ -50,6 +50,7 @@ from bench.contact_metrics import BodyTrack, contact_metrics, edge_rest_lengths 
 DEFAULT_FRAMES = {
     "drape_sphere": 48,
     "drape_sphere_16k": 24,
+    "table_cloth": 48,
     "sleeve_swing": 24,
     "box_pinch": 25,
     "thin_limb": 16,

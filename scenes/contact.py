@@ -10,6 +10,8 @@ Scenes (`SCENES` maps names to builders):
 
 - `drape_sphere` / `drape_sphere_16k`: an n x n sheet (64 x 64 = 4,096 vertices, 128 x 128 =
   16,384) 1 m wide released 0.15 m above a sphere of radius 0.3 m; thickness 5 mm, self-collision on.
+- `table_cloth`: a 64 x 64 sheet 1.2 m wide released 0.1 m above a 0.6 m square box table (12
+  triangles): cloth resting on a flat face and hanging over sharp edges and corners.
 - `sleeve_swing`: a cloth sleeve pinned to a thin limb swung at several m/s
   (`weft.collision_scenes.sleeve_shot`).
 - `box_pinch`: a sheet pinched between two closing boxes (`weft.collision_scenes.box_pinch_shot`).
@@ -48,6 +50,20 @@ def drape_sphere(directory: Path, n: int = 64, frames: int = 48, width: float = 
                      origin=(-width / 2, radius + drop, -width / 2), frames=frames, substeps=substeps,
                      material={"thickness": thickness, "friction": 0.5, "damping": 0.01}, air_drag=0.2)
     doc["bodies"] = [{"name": "sphere", "mesh": inline_mesh(vertices, faces)}]
+    doc["features"] = {"self_collision": True}
+    return doc
+
+
+def table_cloth(directory: Path, n: int = 64, frames: int = 48, width: float = 1.2, table: float = 0.6,
+                height: float = 0.4, drop: float = 0.1, thickness: float = 0.005, substeps: int = 4) -> dict[str, Any]:
+    """An n x n horizontal sheet, `width` wide, `drop` above a box table (`table` square, `height`
+    tall, its top at y = 0): the everyday first scene, cloth resting flat on a face and hanging over
+    four sharp edges and corners into folds."""
+    vertices, faces = box_mesh(extents=(table, height, table), centre=(0.0, -height / 2, 0.0))
+    doc = sheet_shot(f"table_cloth_{n}", n, n, width, width, plane="xz", origin=(-width / 2, drop, -width / 2),
+                     frames=frames, substeps=substeps,
+                     material={"thickness": thickness, "friction": 0.5, "damping": 0.01}, air_drag=0.2)
+    doc["bodies"] = [{"name": "table", "mesh": inline_mesh(vertices, faces)}]
     doc["features"] = {"self_collision": True}
     return doc
 
@@ -284,6 +300,7 @@ def loose_skirt(directory: Path, frames: int = 24, **kwargs: Any) -> dict[str, A
 SCENES: dict[str, Callable[..., dict[str, Any]]] = {
     "drape_sphere": drape_sphere,
     "drape_sphere_16k": drape_sphere_16k,
+    "table_cloth": table_cloth,
     "sleeve_swing": sleeve_swing,
     "box_pinch": box_pinch,
     "thin_limb": thin_limb,

@@ -18,6 +18,7 @@ from weft.solver_setup import resolve_scene
 TINY = {
     "drape_sphere": {"n": 6, "frames": 2},
     "drape_sphere_16k": {"n": 6, "frames": 2},
+    "table_cloth": {"n": 6, "frames": 2},
     "sleeve_swing": {"frames": 2},
     "box_pinch": {"n": 5, "after": 0},
     "thin_limb": {"n": 6, "frames": 2},
@@ -248,3 +249,26 @@ def test_frames_inside_tells_pinched_frames_from_the_rest() -> None:
     # The initial state (index 0) is not a simulated frame; frames 2 and 3 are pinched.
     assert frames_inside([5, 0, 3, 1, 2], telemetry) == {"inside_frames": 3, "inside_frames_unpinched": 1}
     assert frames_inside([0, 0, 0, 0, 0], telemetry) == {"inside_frames": 0, "inside_frames_unpinched": 0}
+
+
+def test_the_table_cloth_hangs_over_every_edge_and_stays_out_of_the_table(tmp_path: Path) -> None:
+    from scenes.contact import table_cloth
+
+    # 16 x 16 over a 0.6 m table (top at y = 0, 0.4 m tall), one second: the sheet lands flat,
+    # slides over the four sharp edges and hangs; no vertex ever enters the box.
+    scene = resolve_scene(parse_shot(table_cloth(tmp_path, n=16, frames=24)), tmp_path)
+    run = run_weft(scene, 24, threads=2)
+    assert run["failure"] is None
+    x = run["positions"]
+    assert np.isfinite(x).all()
+    over_top = (np.abs(x[..., 0]) < 0.3) & (np.abs(x[..., 2]) < 0.3)
+    inside = over_top & (x[..., 1] < 0.0) & (x[..., 1] > -0.4)
+    assert inside.sum() == 0
+    last = x[-1]
+    for axis in (0, 2):
+        for sign in (1.0, -1.0):
+            hanging = sign * last[:, axis] > 0.32  # beyond the table's side
+            assert hanging.any() and last[hanging, 1].min() < -0.2, (axis, sign)
+    middle = (np.abs(last[:, 0]) < 0.25) & (np.abs(last[:, 2]) < 0.25)
+    assert middle.sum() > 20 and 0.0 < last[middle, 1].min() and last[middle, 1].max() < 0.05  # resting on the top
+    assert all(t.intersections == 0 and t.max_edge_strain < 1.5 for t in run["telemetry"])
