@@ -12,6 +12,11 @@ Scenes (`SCENES` maps names to builders):
   16,384) 1 m wide released 0.15 m above a sphere of radius 0.3 m; thickness 5 mm, self-collision on.
 - `table_cloth`: a 64 x 64 sheet 1.2 m wide released 0.1 m above a 0.6 m square box table (12
   triangles): cloth resting on a flat face and hanging over sharp edges and corners.
+- `spinning_sphere`: a 48 x 48 sheet dropped on a sphere turning about the vertical at 2 rad/s.
+- `fast_drop`: the drape at 48 x 48 released 1.2 m above the sphere (it lands at about 5 m/s).
+- `towel_bar`: a 48 x 48 towel dropped over a 2 cm bar.
+- `curtain_box`: a 40 x 40 curtain pinned along its top, a box pushed through its lower half at
+  2 m/s (the stretch between the pins and the box is forced).
 - `sleeve_swing`: a cloth sleeve pinned to a thin limb swung at several m/s
   (`weft.collision_scenes.sleeve_shot`).
 - `box_pinch`: a sheet pinched between two closing boxes (`weft.collision_scenes.box_pinch_shot`).
@@ -43,12 +48,13 @@ from scenes.collision import (box_mesh, box_pinch_shot, capsule_mesh, sleeve_mes
 
 
 def drape_sphere(directory: Path, n: int = 64, frames: int = 48, width: float = 1.0, radius: float = 0.3,
-                 drop: float = 0.15, thickness: float = 0.005, substeps: int = 4) -> dict[str, Any]:
+                 drop: float = 0.15, thickness: float = 0.005, substeps: int = 4,
+                 air_drag: float = 0.2) -> dict[str, Any]:
     """An n x n horizontal sheet, `width` wide, `drop` above a sphere of `radius` at the origin."""
     vertices, faces = sphere_mesh(radius, subdivisions=4)
     doc = sheet_shot(f"drape_sphere_{n}", n, n, width, width, plane="xz",
                      origin=(-width / 2, radius + drop, -width / 2), frames=frames, substeps=substeps,
-                     material={"thickness": thickness, "friction": 0.5, "damping": 0.01}, air_drag=0.2)
+                     material={"thickness": thickness, "friction": 0.5, "damping": 0.01}, air_drag=air_drag)
     doc["bodies"] = [{"name": "sphere", "mesh": inline_mesh(vertices, faces)}]
     doc["features"] = {"self_collision": True}
     return doc
@@ -64,6 +70,60 @@ def table_cloth(directory: Path, n: int = 64, frames: int = 48, width: float = 1
                      frames=frames, substeps=substeps,
                      material={"thickness": thickness, "friction": 0.5, "damping": 0.01}, air_drag=0.2)
     doc["bodies"] = [{"name": "table", "mesh": inline_mesh(vertices, faces)}]
+    doc["features"] = {"self_collision": True}
+    return doc
+
+
+def spinning_sphere(directory: Path, n: int = 48, frames: int = 48, spin: float = 2.0) -> dict[str, Any]:
+    """An n x n sheet 1 m wide released 0.1 m above a sphere of radius 0.3 m that turns about the
+    vertical at `spin` rad/s (0.6 m/s at its equator): resting contact on a moving body, friction
+    carrying the cloth round, and no translation for a sweep frame to take out."""
+    vertices, faces = sphere_mesh(0.3, subdivisions=4)
+    fps = 24.0
+    turns = [spin * k / fps for k in range(frames)]
+    animation = np.stack([vertices @ np.array([[np.cos(a), 0.0, -np.sin(a)], [0.0, 1.0, 0.0],
+                                               [np.sin(a), 0.0, np.cos(a)]]) for a in turns])
+    directory.mkdir(parents=True, exist_ok=True)
+    np.savez(directory / "sphere.npz", positions=animation)
+    doc = sheet_shot(f"spinning_sphere_{n}", n, n, 1.0, 1.0, plane="xz", origin=(-0.5, 0.4, -0.5), frames=frames,
+                     substeps=4, fps=fps, material={"thickness": 0.005, "friction": 0.5, "damping": 0.01},
+                     air_drag=0.2)
+    doc["bodies"] = [{"name": "sphere", "mesh": inline_mesh(vertices, faces), "animation": {"path": "sphere.npz"}}]
+    doc["features"] = {"self_collision": True}
+    return doc
+
+
+def fast_drop(directory: Path, n: int = 48, frames: int = 36) -> dict[str, Any]:
+    """`drape_sphere` at n x n released 1.2 m above the sphere, without air drag: the sheet meets
+    it at about 5 m/s (0.05 m per substep, ten thicknesses)."""
+    doc = drape_sphere(directory, n=n, frames=frames, drop=1.2, air_drag=0.0)
+    doc["name"] = f"fast_drop_{n}"
+    return doc
+
+
+def towel_bar(directory: Path, n: int = 48, frames: int = 48) -> dict[str, Any]:
+    """An n x n towel 0.8 m wide released 0.1 m above a horizontal bar of radius 2 cm (a closed
+    tube 1.2 m long): a body thinner than the cloth is wide, both halves falling onto each other."""
+    vertices, faces = tube_mesh(0.02, 1.2, sections=16, segments=24)
+    doc = sheet_shot(f"towel_bar_{n}", n, n, 0.8, 0.8, plane="xz", origin=(-0.4, 0.1, -0.4), frames=frames,
+                     substeps=4, material={"thickness": 0.004, "friction": 0.5, "damping": 0.01}, air_drag=0.2)
+    doc["bodies"] = [{"name": "bar", "mesh": inline_mesh(vertices, faces)}]
+    doc["features"] = {"self_collision": True}
+    return doc
+
+
+def curtain_box(directory: Path, n: int = 40, frames: int = 36, speed: float = 2.0) -> dict[str, Any]:
+    """A 0.5 m curtain pinned along its top (vertical, in the xy plane); a 0.2 m box 0.3 m below the
+    top starts 0.4 m behind it and moves through its lower half at `speed` m/s for 0.9 m: the
+    pins and the box stretch the cloth between them (strain forced)."""
+    vertices, faces = box_mesh(extents=(0.2, 0.2, 0.2), centre=(0.25, -0.3, -0.4))
+    fps = 24.0
+    animation = np.stack([vertices + [0.0, 0.0, min(speed * k / fps, 0.9)] for k in range(frames)])
+    directory.mkdir(parents=True, exist_ok=True)
+    np.savez(directory / "box.npz", positions=animation)
+    doc = sheet_shot("curtain_box", n, n, 0.5, 0.5, plane="xy", pins=list(range(n)), frames=frames, substeps=4,
+                     fps=fps, material={"thickness": 0.004, "friction": 0.3, "damping": 0.01}, air_drag=0.2)
+    doc["bodies"] = [{"name": "box", "mesh": inline_mesh(vertices, faces), "animation": {"path": "box.npz"}}]
     doc["features"] = {"self_collision": True}
     return doc
 
@@ -301,6 +361,10 @@ SCENES: dict[str, Callable[..., dict[str, Any]]] = {
     "drape_sphere": drape_sphere,
     "drape_sphere_16k": drape_sphere_16k,
     "table_cloth": table_cloth,
+    "spinning_sphere": spinning_sphere,
+    "fast_drop": fast_drop,
+    "towel_bar": towel_bar,
+    "curtain_box": curtain_box,
     "sleeve_swing": sleeve_swing,
     "box_pinch": box_pinch,
     "thin_limb": thin_limb,

@@ -19,6 +19,10 @@ TINY = {
     "drape_sphere": {"n": 6, "frames": 2},
     "drape_sphere_16k": {"n": 6, "frames": 2},
     "table_cloth": {"n": 6, "frames": 2},
+    "spinning_sphere": {"n": 6, "frames": 2},
+    "fast_drop": {"n": 6, "frames": 2},
+    "towel_bar": {"n": 6, "frames": 2},
+    "curtain_box": {"n": 6, "frames": 2},
     "sleeve_swing": {"frames": 2},
     "box_pinch": {"n": 5, "after": 0},
     "thin_limb": {"n": 6, "frames": 2},
@@ -272,3 +276,32 @@ def test_the_table_cloth_hangs_over_every_edge_and_stays_out_of_the_table(tmp_pa
     middle = (np.abs(last[:, 0]) < 0.25) & (np.abs(last[:, 2]) < 0.25)
     assert middle.sum() > 20 and 0.0 < last[middle, 1].min() and last[middle, 1].max() < 0.05  # resting on the top
     assert all(t.intersections == 0 and t.max_edge_strain < 1.5 for t in run["telemetry"])
+
+
+def test_friction_carries_the_cloth_round_the_spinning_sphere(tmp_path: Path) -> None:
+    from scenes.contact import spinning_sphere
+
+    # 12 x 12 on a sphere (radius 0.3 m) turning about the vertical at 2 rad/s, 1.5 s: once
+    # landed (frame 12) the cloth over the top turns with it, slipping a little (friction 0.5),
+    # and never enters it.
+    frames = 36
+    scene = resolve_scene(parse_shot(spinning_sphere(tmp_path, n=12, frames=frames)), tmp_path)
+    run = run_weft(scene, frames, threads=2)
+    assert run["failure"] is None
+    x = run["positions"]
+    sphere = np.asarray(scene.bodies[0].frames)
+    marker = int(np.argmax(sphere[0, :, 0]))  # a vertex on the sphere's equator
+
+    def turn(points: np.ndarray) -> np.ndarray:  # angle about the vertical, unwrapped over frames
+        return np.unwrap(np.arctan2(points[..., 0], points[..., 2]), axis=0)
+
+    landed = 12
+    sphere_turn = turn(sphere[:, marker])[-1] - turn(sphere[:, marker])[landed]
+    assert abs(sphere_turn) == pytest.approx(2.0 * (frames - 1 - landed) / 24.0)
+    top = np.hypot(x[landed, :, 0], x[landed, :, 2]) < 0.2
+    assert top.sum() >= 8
+    cloth_turn = turn(x[:, top])[-1] - turn(x[:, top])[landed]
+    assert np.all(cloth_turn * sphere_turn > 0)  # every top vertex turned the same way
+    assert 0.6 < np.median(cloth_turn) / sphere_turn < 1.05
+    assert np.linalg.norm(x, axis=2).min() > 0.3  # outside the sphere in every frame
+    assert all(t.intersections == 0 for t in run["telemetry"])
