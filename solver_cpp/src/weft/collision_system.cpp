@@ -256,7 +256,7 @@ void CollisionSystem::redetect(std::vector<int>& hits) {
 void CollisionSystem::respond(const Positions& x, Positions& v, double h, const std::vector<KinematicBody>& bodies,
                               double alpha0, double alpha1) {
   step_.begin(x, v, h);
-  step_.corner_edges = constraints_.sharp_edges();
+  step_.sharp_edges = constraints_.sharp_edges();
   abandoned_ = false;
   body_positions(bodies, alpha0, alpha1);
   constraints_.friction(step_, props_);
@@ -291,10 +291,8 @@ void CollisionSystem::respond(const Positions& x, Positions& v, double h, const 
     gia_bodies_->clear();
     untangle_.clear();
   }
-  step_.sharp_edges = constraints_.sharp_edges();
   step_.clear_vertices = constraints_.clear_vertices();
   detection_.collect(step_, *filter_, frame_, false);
-  step_.sharp_edges = nullptr;
   step_.clear_vertices = nullptr;
   ProximityResponse().apply(step_, props_, frame_, threads_);
   if (strain_limit_.enabled()) {

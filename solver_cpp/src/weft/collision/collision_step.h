@@ -49,21 +49,19 @@ struct CollisionStep {
   std::vector<FeaturePair> pairs;            // CCD candidates of the current pass (ContactDetection::collect)
   std::vector<FeaturePair> proximity_pairs;  // proximity candidates of the step (likewise)
   std::vector<char> changed;  // cloth vertices whose velocity changed since the last CCD pass
-  // Per body, for the proximity pairs of this step: its edges sharp for the cloth, as the
-  // contact constraints found them (ContactConstraints::sharp_edges). The list is then found
-  // point by point (cloth vertices with body faces, body corners with cloth faces) with edge/edge
-  // pairs only for the body edges that can reach a cloth edge between vertices kept off: the
-  // sharp ones and the blunt ones pushing into the cloth this step (SharpEdges::advancing).
-  // Null: the triangle traversal lists every pair of all three kinds.
+  // Per body, its edges sharp for the cloth and face normals at the step's start, as the
+  // contact constraints found them (ContactConstraints::sharp_edges), through the whole step.
+  // The proximity list is then found point by point (cloth vertices with body faces, body
+  // corners with cloth faces) with edge/edge pairs only for the body edges that can reach a
+  // cloth edge between vertices kept off: the sharp ones and the blunt ones pushing into the
+  // cloth this step (SharpEdges::advancing); GIA's recovery finds with them the cloth edges that
+  // cut a body's corner (SharpEdges::corner_cut). Null: the contact constraints did not run, and
+  // the triangle traversal lists every pair of all three kinds.
   const std::vector<SharpEdges>* sharp_edges = nullptr;
   // With sharp_edges, per cloth vertex: no body face within its separation at the step's start
   // (ContactConstraints::clear_vertices); the point-by-point list skips such vertices.
   const std::vector<char>* clear_vertices = nullptr;
   int ccd_iteration = 0;      // CCD impulse pass within the step
-  // Per body, its sharp edges and face normals at the step's start (ContactConstraints::
-  // sharp_edges), through the whole step: GIA's recovery finds with them the cloth edges that
-  // cut a body's corner (SharpEdges::corner_cut). Null when the contact constraints did not run.
-  const std::vector<SharpEdges>* corner_edges = nullptr;
   // The cloth edges GIA's recovery found cutting a body's corner this step, as (lower vertex,
   // higher vertex, body), sorted: it moves them out, and the proximity response leaves their
   // edge pairs with that body alone (pushed along their closest points, into the body, they
@@ -79,7 +77,7 @@ struct CollisionStep {
     corner_cuts.clear();
   }
   void end() {
-    corner_edges = nullptr;
+    sharp_edges = nullptr;
     x = nullptr;
     v = nullptr;
   }

@@ -253,8 +253,8 @@ void GiaBodyDriver::recover(CollisionStep& step, const ContactProperties& props,
       step.moved(i);
       ++pushed;
     }
-    if (step.corner_edges != nullptr && b < step.corner_edges->size())
-      pushed += push_corner_cuts(step, props, pinch, body, (*step.corner_edges)[b]);
+    if (step.sharp_edges != nullptr && b < step.sharp_edges->size())
+      pushed += push_corner_cuts(step, props, pinch, body, (*step.sharp_edges)[b]);
   }
   std::sort(step.corner_cuts.begin(), step.corner_cuts.end());
   frame.gia_pushed_vertices += pushed;

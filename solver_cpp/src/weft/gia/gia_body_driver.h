@@ -27,7 +27,7 @@ class GiaBodyDriver {
   bool colour(const CollisionStep& step, int threads, CollisionTelemetry& frame,
               const std::vector<char>* only = nullptr);
   // Recovery pushes (and pinch grips) on step.v: contour vertices inside a body, and cloth
-  // edges that cut a body's corner (with step.corner_edges).
+  // edges that cut a body's corner (with step.sharp_edges).
   void recover(CollisionStep& step, const ContactProperties& props, PinchDriver* pinch, CollisionTelemetry& frame);
   void clear();
 
