@@ -1,5 +1,6 @@
 """`python -m bench.strain_map`: the edges above a strain threshold and where they lie, checked on
-a hand-built two-triangle case and on a short run of the thin limb; clear errors for bad input."""
+hand-built cases (a stretched square; two cloth pieces over a body of two parts) and on a short
+run of the thin limb; clear errors for bad input."""
 
 from __future__ import annotations
 
@@ -35,7 +36,37 @@ def test_a_stretched_edge_is_found_with_its_distances() -> None:
     assert row["to_pin_m"]["max"] == pytest.approx(np.sqrt(2.0))
     # Nothing above the threshold: no distances.
     assert strain_map(scene, [rest, rest], threshold=1.5)[0] == {
-        "frame": 1, "max_strain": pytest.approx(1.0), "edges_over": 0, "to_body_m": None, "to_pin_m": None}
+        "frame": 1, "max_strain": pytest.approx(1.0), "edges_over": 0, "to_body_m": None, "to_pin_m": None,
+        "by_piece": {}, "between_parts": 0, "by_part": {}}
+
+
+def test_edges_are_counted_by_piece_and_by_the_body_parts_they_rest_on() -> None:
+    # Piece "a", a unit square in z = 0, over a body of two parts (separate triangles 5 mm below
+    # the plane): part 0 under x in [-1, 0.5], part 1 under x in [1.5, 3]. Piece "b", a triangle
+    # far from both.
+    rest = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0],
+                     [5.0, 0.0, 0.0], [6.0, 0.0, 0.0], [5.0, 1.0, 0.0]])
+    faces = np.array([[0, 1, 2], [0, 2, 3], [4, 5, 6]])
+    body_x = np.array([[-1.0, -1.0, -0.005], [0.5, -1.0, -0.005], [0.5, 3.0, -0.005],
+                       [1.5, -1.0, -0.005], [3.0, -1.0, -0.005], [1.5, 3.0, -0.005]])
+    body = SimpleNamespace(name="legs", frames=[body_x, body_x], faces=np.array([[0, 1, 2], [3, 4, 5]]))
+    pieces = [SimpleNamespace(name="a", vertex_offset=0, vertex_count=4),
+              SimpleNamespace(name="b", vertex_offset=4, vertex_count=3)]
+    scene = SimpleNamespace(faces=faces, rest_positions=None, fixed_pins=np.array([], dtype=int),
+                            body_pin_vertices=np.array([], dtype=int), bodies=[body], pieces=pieces)
+    moved = rest.copy()
+    moved[2] = [2.0, 1.0, 0.0]  # over part 1: (0, 2) 1.58 and (2, 3) 2.0 from part 0 to part 1; (1, 2) 1.41
+    moved[5] = [8.0, 0.0, 0.0]  # piece b: (4, 5) 3.0 and (5, 6) 2.24, near no part
+    row = strain_map(scene, [rest, moved], threshold=1.5)[0]
+    assert row["edges_over"] == 4
+    assert row["by_piece"] == {"a": 2, "b": 2}
+    # Both of piece a's edges end on the two parts; each is counted at its first end's part:
+    # (0, 2) at part 0, (2, 3) at part 1. Piece b's rest on none.
+    assert row["between_parts"] == 2
+    assert row["by_part"] == {"legs part 0": 1, "legs part 1": 1}
+    # Within 4 mm nothing rests on a part (every end is 5 mm above one).
+    near = strain_map(scene, [rest, moved], threshold=1.5, near=0.004)[0]
+    assert near["between_parts"] == 0 and near["by_part"] == {}
 
 
 def test_the_thin_limb_agrees_with_the_solver_telemetry(tmp_path: Path) -> None:
@@ -51,6 +82,10 @@ def test_the_thin_limb_agrees_with_the_solver_telemetry(tmp_path: Path) -> None:
         if row["edges_over"]:
             assert 0.0 <= row["to_body_m"]["min"] <= row["to_body_m"]["median"] <= row["to_body_m"]["max"]
             assert row["to_pin_m"]["min"] >= 0.0
+        # One piece holds every listed edge; no more rest on parts than are listed.
+        assert sum(row["by_piece"].values()) == row["edges_over"]
+        assert sum(row["by_part"].values()) <= row["edges_over"]
+        assert 0 <= row["between_parts"] <= row["edges_over"]
 
 
 @pytest.mark.parametrize("argv, message", [
@@ -58,6 +93,8 @@ def test_the_thin_limb_agrees_with_the_solver_telemetry(tmp_path: Path) -> None:
     (["--threshold", "0.9"], "--threshold"),
     (["--frames", "1"], "--frames"),
     (["--threads", "0"], "--threads"),
+    (["--near", "-0.01"], "--near"),
+    (["--near", "nan"], "--near"),
 ])
 def test_bad_arguments_name_the_problem(argv: list[str], message: str, capsys: pytest.CaptureFixture[str]) -> None:
     with pytest.raises(SystemExit) as exit_info:
