@@ -88,10 +88,12 @@ def build_scene(name: str, directory: Path, frames: int, features: dict[str, Any
 
 
 def run_weft(scene: Any, frames: int, threads: int) -> dict[str, Any]:
-    """Simulates the first `frames` frames (the initial state included) keeping every frame's
-    positions in memory; stops at a solver failure."""
+    """Simulates the first `frames` frames (the initial state included; at most the scene's own,
+    for a builder that sets its length) keeping every frame's positions in memory; stops at a
+    solver failure."""
     from weft.simulate import SolverFailure, advance, new_simulation, telemetry_row
 
+    frames = min(frames, scene.frame_count)
     shot = scene.shot
     start = time.perf_counter()
     sim = new_simulation(scene, threads)

@@ -48,6 +48,16 @@ def test_scene_validates_and_runs_two_frames(name: str, tmp_path: Path) -> None:
     assert weft_breakdown(run["telemetry"])["cg_iterations_per_substep"] > 0
 
 
+def test_a_run_asked_for_more_frames_than_the_scene_has_stops_at_its_end(tmp_path: Path) -> None:
+    # The box pinch sets its own length (2 * 5 + 6 + 1 + 8 frames): asked for 40 it runs 25.
+    scene = build_scene("box_pinch", tmp_path, 40)
+    run = run_weft(scene, 40, threads=1)
+    assert run["failure"] is None
+    assert scene.frame_count == 25
+    assert run["positions"].shape == (25, scene.vertex_count, 3)
+    assert len(run["frame_seconds"]) == 24
+
+
 def test_character_parts_are_closed_and_overlap_at_the_joints() -> None:
     from weft import _solver
 
