@@ -196,6 +196,62 @@ TEST(ContactConstraints, TheSameContactsOnAnyThreadCount) {
   }
 }
 
+// The searches a vertex skips while it and the bodies stay far apart (contact_constraints.h,
+// far_margin_) change nothing: a ContactConstraints used over a sequence of steps gives, at each,
+// the filter and the clear vertices of a new one (with the same held and released flags). The
+// cloth is lifted far above the bodies for some steps (their searches skipped), jiggled, dropped
+// back into the band in one step, and the plate moves towards it.
+TEST(ContactConstraints, SkippedSearchesGiveTheContactsOfAFullSearch) {
+  const Scene s(7);
+  const int faces = static_cast<int>(s.cloth_faces.rows());
+  const int n = static_cast<int>(s.x.rows());
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> jiggle(-0.0005, 0.0005);
+  const std::vector<double> lift{0.0, 0.05, 0.0502, 0.0499, 0.05, 0.0, 0.0003, 0.02, 0.0, 0.0};
+  const std::vector<double> plate_drop{0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.002, 0.003};
+  ContactConstraints cached;
+  int contacts = 0, clear_count = 0;
+  for (size_t k = 0; k < lift.size(); ++k) {
+    Positions x = s.x;
+    for (int i = 0; i < n; ++i) x.row(i) += Vec3(jiggle(rng), jiggle(rng), lift[k] + jiggle(rng)).transpose();
+    Positions v = Positions::Zero(n, 3);
+    v.col(2).setConstant(-1.0);  // approaching: every vertex within the band is constrained
+    CollisionStep step;
+    step.begin(x, v, 0.01);
+    for (size_t b = 0; b < s.bodies.size(); ++b) {
+      Positions y = s.bodies[b].frame_start();
+      if (b == 1) y.col(2).array() -= plate_drop[k];
+      step.body_start.push_back(y);
+      step.body_end.push_back(y);
+    }
+    ContactDetection detection(s.cloth_faces, x, std::vector<char>(faces, 1), std::vector<char>(faces, 0),
+                               std::vector<double>(faces, kThickness), s.bodies, {1, 1});
+    detection.set_threads(2);
+    cached.clear();  // as the collision system does after each step
+    ContactConstraints fresh;
+    fresh.set_flags(cached.flags(), n);
+    ConstraintFilter with_cache, without;
+    with_cache.reset(n);
+    without.reset(n);
+    CollisionTelemetry a, b;
+    cached.constrain(x, v, 0.01, step, detection, s.props, with_cache, a);
+    fresh.constrain(x, v, 0.01, step, detection, s.props, without, b);
+    ASSERT_EQ(a.contact_constraints, b.contact_constraints) << "step " << k;
+    for (int i = 0; i < n; ++i) {
+      ASSERT_EQ(with_cache.projection[i], without.projection[i]) << "vertex " << i << ", step " << k;
+      ASSERT_EQ(with_cache.prescribed.segment<3>(3 * i), without.prescribed.segment<3>(3 * i))
+          << "vertex " << i << ", step " << k;
+    }
+    ASSERT_EQ(*cached.clear_vertices(), *fresh.clear_vertices()) << "step " << k;
+    ASSERT_EQ(cached.flags(), fresh.flags()) << "step " << k;
+    contacts += a.contact_constraints;
+    clear_count += static_cast<int>(std::count(cached.clear_vertices()->begin(), cached.clear_vertices()->end(), 1));
+  }
+  // Not vacuous: contacts where the cloth is down, clear vertices where it is lifted.
+  EXPECT_GT(contacts, 400);
+  EXPECT_GT(clear_count, 4 * (n - 2));
+}
+
 // Friction of a contact's first step: its normal impulse stops the vertex's approach (an
 // impact), and that share neither bounds its friction nor makes it stick; once held, the impulse
 // that presses it on the body does, and a stop makes it stick only when it slid less than its

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <random>
 #include <set>
 #include <stdexcept>
@@ -160,6 +161,32 @@ TEST(AabbTree, TheNearestFirstSearchFindsWhatAFullScanFinds) {
     ASSERT_EQ(found, scan) << "query " << q;
   }
   EXPECT_LT(visited, 500L * 2000 / 20);
+}
+
+// The search's pruned bound: every leaf it did not visit lies at least that far from the point
+// (the bound a caller takes for "nothing nearer"), and a search that visits nothing reports the
+// nearest box's distance or more.
+TEST(AabbTree, EveryLeafTheSearchSkipsLiesBeyondItsPrunedBound) {
+  const std::vector<Aabb> boxes = random_boxes(2000, 8, 0.01);
+  AabbTree tree;
+  tree.build(boxes);
+  std::mt19937 rng(9);
+  std::uniform_real_distribution<double> unit(-0.5, 1.5);
+  int skipped_some = 0;
+  for (int q = 0; q < 300; ++q) {
+    const Vec3 p(unit(rng), unit(rng), unit(rng));
+    double radius = 0.02;
+    double pruned = std::numeric_limits<double>::infinity();
+    std::vector<char> visited(boxes.size(), 0);
+    tree.nearest(p, radius, [&](int k) { visited[k] = 1; }, &pruned);
+    double nearest_skipped = std::numeric_limits<double>::infinity();
+    for (size_t k = 0; k < boxes.size(); ++k)
+      if (!visited[k]) nearest_skipped = std::min(nearest_skipped, boxes[k].squared_distance(p));
+    ASSERT_LE(pruned, nearest_skipped) << "query " << q;
+    ASSERT_GT(pruned, radius * radius) << "query " << q;  // only subtrees beyond the radius are pruned
+    if (std::isfinite(nearest_skipped)) ++skipped_some;
+  }
+  EXPECT_EQ(skipped_some, 300);
 }
 
 // Boxes and refits on two threads give the trees of one thread: the same pairs, in order.

@@ -21,6 +21,7 @@ namespace {
 constexpr double kContactBand = 2.0;
 // Cloth faces per parallel work item of the searches.
 constexpr std::int64_t kChunk = 256;
+constexpr double kInfinity = std::numeric_limits<double>::infinity();
 }  // namespace
 
 std::vector<std::uint8_t> ContactConstraints::flags() const {
@@ -79,17 +80,44 @@ void ContactConstraints::constrain(const Positions& x, const Positions& v, doubl
   std::vector<Near> nearby;
   // clear_[v] is written by the chunk owning v only (each vertex has one owning face).
   clear_.assign(vertex_count, 0);
+  // A vertex far from a body stays out of its band for many steps (a sheet hanging below a
+  // sphere, a skirt against each of a character's parts but the nearest): where a search found
+  // no face, every face lay at least as far as the nearest one it visited or subtree it skipped
+  // (AabbTree::nearest's pruned bound). That bound, less the band, is the vertex's margin for
+  // this body; each call takes off how far the vertex and the body's farthest-moving vertex
+  // moved since the last, and while the margin stays above 0 no face can be within the band
+  // (or the reach) and the search is skipped: the same contacts, and the same clear vertices.
+  const auto body_slots = static_cast<int>(bodies.size());
+  const bool known = last_x_.rows() == vertex_count && last_body_x_.size() == bodies.size() &&
+                     far_margin_.size() == static_cast<size_t>(vertex_count) * bodies.size();
+  if (!known) far_margin_.assign(static_cast<size_t>(vertex_count) * bodies.size(), -kInfinity);
+  std::vector<double> body_moved(bodies.size(), kInfinity);
+  for (int k = 0; known && k < body_slots; ++k) {
+    const Positions& now = step.body_start[bodies[k]];
+    if (now.rows() != last_body_x_[k].rows()) continue;
+    double farthest = 0.0;
+    for (Eigen::Index i = 0; i < now.rows(); ++i) farthest = std::max(farthest, (row3(now, i) - row3(last_body_x_[k], i)).norm());
+    body_moved[k] = farthest;
+  }
   ordered_append(face_count, kChunk, detection.threads(), nearby, [&](std::int64_t cf, std::vector<Near>& out) {
     if (!detection.face_collide()[cf]) return;
     for (int vtx : detection.cloth_ownership().face_vertices[cf]) {
-      if (props.inverse_mass[vtx] == 0.0) continue;
+      double* margin = far_margin_.data() + static_cast<size_t>(vtx) * bodies.size();
+      if (props.inverse_mass[vtx] == 0.0) {  // not looked at: nothing known when it is freed
+        std::fill(margin, margin + body_slots, -kInfinity);
+        continue;
+      }
       const Vec3 p = row3(x, vtx);
+      const double vertex_moved = known ? (p - row3(last_x_, vtx)).norm() : kInfinity;
       Near found{std::numeric_limits<double>::infinity(), {}};
       // Any face nearer than the separation, the ones the nearest face search passes over
       // (within 1e-12 of it) included: the search visits every face within its radius, which
       // never falls below the separation before such a face was seen.
       bool within_separation = false;
-      for (int body : bodies) {
+      for (int k = 0; k < body_slots; ++k) {
+        const int body = bodies[k];
+        margin[k] -= vertex_moved + body_moved[k];
+        if (margin[k] > 0.0) continue;
         const Positions& start = step.body_start[body];
         const Positions& end = step.body_end[body];
         const ContactDetection::Body& state = detection.bodies()[body];
@@ -99,20 +127,27 @@ void ContactConstraints::constrain(const Positions& x, const Positions& v, doubl
         double radius = kContactBand * th;
         int face = -1;
         double nearest = std::numeric_limits<double>::infinity();
+        double beyond = kInfinity;  // no face nearer (squared): skipped subtrees, rejected faces
         Vec3 weights;
         state.tree.nearest(p, radius, [&](int bf) {
           Vec3 bary;
           const double d = point_triangle_distance(p, row3(start, state.faces(bf, 0)), row3(start, state.faces(bf, 1)),
                                                    row3(start, state.faces(bf, 2)), bary);
           if (d < reach) within_separation = true;
-          if (d >= kContactBand * th || d <= 1e-12 * th) return;
+          if (d >= kContactBand * th || d <= 1e-12 * th) {
+            beyond = std::min(beyond, d * d);
+            return;
+          }
           if (d < nearest || (d == nearest && bf < face)) {
             nearest = d;
             face = bf;
             weights = bary;
             radius = d;
           }
-        });
+        }, &beyond);
+        // A face found, or one within the reach (the band below it): searched again next time.
+        // The bound shrunk by a relative 1e-9 for the rounding of box and face distances.
+        margin[k] = face < 0 ? std::sqrt(beyond) * (1.0 - 1e-9) - std::max(kContactBand * th, reach) : -kInfinity;
         // Ties (a vertex closest to an edge or corner that faces share): the lowest body, then
         // face (the search keeps the lowest face of a body).
         if (face < 0 || !(nearest < found.distance)) continue;
@@ -128,6 +163,9 @@ void ContactConstraints::constrain(const Positions& x, const Positions& v, doubl
       clear_[vtx] = !within_separation;
     }
   });
+  last_x_ = x;
+  last_body_x_.resize(bodies.size());
+  for (int k = 0; k < body_slots; ++k) last_body_x_[k] = step.body_start[bodies[k]];
   for (const Near& near : nearby) {
     best[near.contact.vertex] = near.distance;
     contact[near.contact.vertex] = near.contact;

@@ -143,6 +143,13 @@ class ContactConstraints {
   std::vector<SharpEdges> sharp_;  // per body
   std::vector<char> clear_;        // per cloth vertex: clear_vertices()
   bool looked_ = false;            // constrain() ran since the last clear()
+  // Searches a vertex can skip (constrain()): per (cloth vertex, colliding body) how much
+  // farther than the search could accept every face of the body lay at the last call, less the
+  // vertex's and the body's motion since (-inf: unknown); and the last call's positions, which
+  // that motion is measured from. A cache: the contacts found are the same without it.
+  std::vector<double> far_margin_;
+  Positions last_x_;
+  std::vector<Positions> last_body_x_;
   double thinnest_ = 0.0, thickest_ = 0.0;  // cloth vertex thicknesses, for the sharp edges
 };
 

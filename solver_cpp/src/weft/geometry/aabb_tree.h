@@ -137,8 +137,10 @@ class AabbTree {
   // `radius` (strictly), and may lower `radius` (the distance of the best leaf so far). Every
   // leaf whose box is within the final radius of p is visited, so a search that keeps the
   // nearest leaf (and the lowest index among equally near ones) finds it as a full scan would.
+  // pruned (optional): lowered to the smallest squared box distance of a subtree the search
+  // skipped for lying beyond the radius, so every leaf not visited lies at least that far.
   template <class Visit>
-  void nearest(const Vec3& p, double& radius, Visit&& visit) const {
+  void nearest(const Vec3& p, double& radius, Visit&& visit, double* pruned = nullptr) const {
     if (nodes_.empty()) return;
     // Each stacked node with its box's squared distance, computed once (when its parent ordered
     // it): radius only shrinks, so a node beyond it when stacked stays beyond it.
@@ -149,7 +151,11 @@ class AabbTree {
     Stacked stack[64];
     int top = 0;
     // A little slack keeps a leaf exactly as near as the best (a tie) despite rounding.
-    auto beyond = [&radius](double squared) { return squared > radius * radius * (1.0 + 1e-9); };
+    auto beyond = [&radius, pruned](double squared) {
+      const bool skip = squared > radius * radius * (1.0 + 1e-9);
+      if (skip && pruned && squared < *pruned) *pruned = squared;
+      return skip;
+    };
     stack[top++] = {0, nodes_[0].box.squared_distance(p)};
     while (top > 0) {
       const Stacked entry = stack[--top];
