@@ -9,7 +9,8 @@ piece holds those edges and how many of them rest on two body parts (the closed 
 built of, as the solver's inside tests and pinches see them): each end within `--near` of a part
 and the two ends' nearest parts different. Cloth across a joint, between two legs or caught
 between two closing parts is stretched by the parts' motion; an edge at one part is stretched by
-the collision response.
+the collision response. Each piece's 90th-percentile edge strain tells a piece stretched as a
+whole (a tube around legs that spread) from a few edges torn locally.
 
     python -m bench.strain_map --scene thin_limb [--threshold 1.5] [--near 0.01] [--frames N] [--threads 2]
                                [--json PATH]
@@ -75,7 +76,8 @@ def piece_of_vertex(scene: Any, vertex_count: int) -> tuple[list[str], np.ndarra
 def strain_map(scene: Any, positions: list[np.ndarray], threshold: float, near: float = 0.01) -> list[dict[str, Any]]:
     """Per simulated frame (positions[1:]): the largest edge strain, the edges above `threshold`,
     their midpoints' distances (m) to the nearest body surface and to the nearest pinned vertex
-    (fixed or held by a body), how many lie in each cloth piece, and how many rest on two body
+    (fixed or held by a body), how many lie in each cloth piece (and each piece's 90th-percentile
+    edge strain, over all its edges), and how many rest on two body
     parts: each end within `near` of a part, the two ends' nearest parts not the same (cloth
     across a joint, between two legs, caught between two closing parts), and how many rest on
     each part (at the first end's nearest part within `near`, else the second's)."""
@@ -122,12 +124,18 @@ def strain_map(scene: Any, positions: list[np.ndarray], threshold: float, near: 
             for k in at[at >= 0]:
                 by_part[part_names[k]] = by_part.get(part_names[k], 0) + 1
         counts = np.bincount(piece[edges[over, 0]], minlength=len(piece_names))
+        # Each piece's 90th-percentile edge strain: near 1 where a few edges are torn locally,
+        # well above where the piece as a whole is stretched (a tube around spreading legs).
+        edge_piece = piece[edges[:, 0]]
+        p90 = {name: float(np.percentile(strain[edge_piece == k], 90))
+               for k, name in enumerate(piece_names) if np.any(edge_piece == k)}
         frames.append({"frame": index, "max_strain": float(strain.max()), "edges_over": int(len(over)),
                        "to_body_m": spread(to_body) if scene.bodies else None,
                        "to_pin_m": spread(to_pin) if len(pins) else None,
                        "by_piece": {name: int(c) for name, c in zip(piece_names, counts) if c},
                        "between_parts": between if parts else None,
-                       "by_part": dict(sorted(by_part.items(), key=lambda item: -item[1]))})
+                       "by_part": dict(sorted(by_part.items(), key=lambda item: -item[1])),
+                       "p90_by_piece": p90})
     return frames
 
 
@@ -172,13 +180,15 @@ def main(argv: list[str] | None = None) -> int:
 
     table = Table(title=f"{args.scene}: edges above {args.threshold} times their rest length")
     for column in ("frame", "max strain", f"edges > {args.threshold}", "to body mm (min / median / max)",
-                   "to pin mm (min / median / max)", "on two parts", "by piece", "at parts (within --near)"):
+                   "to pin mm (min / median / max)", "on two parts", "by piece", "at parts (within --near)",
+                   "p90 strain by piece"):
         table.add_column(column, justify="right")
     for row in rows:
         table.add_row(str(row["frame"]), f"{row['max_strain']:.2f}", str(row["edges_over"]), mm(row["to_body_m"]),
                       mm(row["to_pin_m"]), "-" if row["between_parts"] is None else str(row["between_parts"]),
                       ", ".join(f"{name} {count}" for name, count in row["by_piece"].items()) or "-",
-                      ", ".join(f"{name} {count}" for name, count in list(row["by_part"].items())[:3]) or "-")
+                      ", ".join(f"{name} {count}" for name, count in list(row["by_part"].items())[:3]) or "-",
+                      ", ".join(f"{name} {value:.2f}" for name, value in row["p90_by_piece"].items()))
     Console().print(table)
     if run["failure"]:
         print(f"the run stopped: {run['failure']}", file=sys.stderr)

@@ -37,7 +37,7 @@ def test_a_stretched_edge_is_found_with_its_distances() -> None:
     # Nothing above the threshold: no distances.
     assert strain_map(scene, [rest, rest], threshold=1.5)[0] == {
         "frame": 1, "max_strain": pytest.approx(1.0), "edges_over": 0, "to_body_m": None, "to_pin_m": None,
-        "by_piece": {}, "between_parts": 0, "by_part": {}}
+        "by_piece": {}, "between_parts": 0, "by_part": {}, "p90_by_piece": {"cloth": pytest.approx(1.0)}}
 
 
 def test_edges_are_counted_by_piece_and_by_the_body_parts_they_rest_on() -> None:
@@ -64,6 +64,10 @@ def test_edges_are_counted_by_piece_and_by_the_body_parts_they_rest_on() -> None
     # (0, 2) at part 0, (2, 3) at part 1. Piece b's rest on none.
     assert row["between_parts"] == 2
     assert row["by_part"] == {"legs part 0": 1, "legs part 1": 1}
+    # 90th percentiles over each piece's own edges: a's five are 1, 1, 1.41, 1.58, 2; b's three
+    # 2.24, 3 and 1 (the unmoved (4, 6)).
+    assert row["p90_by_piece"]["a"] == pytest.approx(np.percentile([1.0, 1.0, np.sqrt(2.0), np.sqrt(2.5), 2.0], 90))
+    assert row["p90_by_piece"]["b"] == pytest.approx(np.percentile([3.0, np.sqrt(10.0) / np.sqrt(2.0), 1.0], 90))
     # Within 4 mm nothing rests on a part (every end is 5 mm above one).
     near = strain_map(scene, [rest, moved], threshold=1.5, near=0.004)[0]
     assert near["between_parts"] == 0 and near["by_part"] == {}
