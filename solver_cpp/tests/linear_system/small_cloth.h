@@ -17,8 +17,9 @@ struct SmallCloth {
   ClothMesh mesh;
   std::unique_ptr<ForceModel> model;
   Positions x, v;
-  // stretch_scale multiplies the stretch and shear stiffness (a stiffer, harder system).
-  SmallCloth(int nx, int ny, double stretch_scale = 1.0) {
+  // stretch_scale multiplies the stretch and shear stiffness (a stiffer, harder system); bend is
+  // every hinge's bending stiffness (N m).
+  SmallCloth(int nx, int ny, double stretch_scale = 1.0, double bend = 1e-4) {
     const int n = nx * ny;
     Positions rest(n, 3);
     for (int j = 0; j < ny; ++j)
@@ -45,7 +46,7 @@ struct SmallCloth {
     m.face_stretch_weft.assign(fc, 300.0 * stretch_scale);
     m.face_shear.assign(fc, 50.0 * stretch_scale);
     m.face_damping.assign(fc, 0.01);
-    m.hinge_bend.assign(mesh.hinges.size(), 1e-4);
+    m.hinge_bend.assign(mesh.hinges.size(), bend);
     m.vertex_mass.assign(n, 2e-5);
     Environment env;
     env.air_drag = 0.3;

@@ -101,6 +101,44 @@ double filtered_residual(const FastLinearSystem<Scalar>& fast, const ConstraintF
   return r.norm() / r0.norm();
 }
 
+MultigridOptions unlumped() {
+  MultigridOptions options;
+  options.lumped_fine_operator = false;
+  return options;
+}
+
+VectorX random_right_hand_side(int rows, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> g(0.0, 1.0);
+  VectorX b(3 * static_cast<Eigen::Index>(rows));
+  for (Eigen::Index k = 0; k < b.size(); ++k) b[k] = g(rng);
+  return b;
+}
+
+// Preconditioned CG on `a` from zero to a relative residual of 1e-6: the iterations it took
+// (1000: not within 200), each preconditioned residual checked positive.
+int cg_iterations(const BlockRowsF& a, const SmoothedAggregation& m, const VectorX& b) {
+  const Eigen::Index n = b.size();
+  VectorX x = VectorX::Zero(n), r = b, z(n), p, q;
+  m.apply(r, z, 1);
+  EXPECT_GT(r.dot(z), 0.0);
+  p = z;
+  double rz = r.dot(z);
+  for (int it = 1; it <= 200; ++it) {
+    a.multiply(p, q, 1);
+    const double alpha = rz / p.dot(q);
+    x += alpha * p;
+    r -= alpha * q;
+    if (r.norm() < 1e-6 * b.norm()) return it;
+    m.apply(r, z, 1);
+    const double next = r.dot(z);
+    EXPECT_GT(next, 0.0) << "the preconditioner is positive definite";
+    p = z + (next / rz) * p;
+    rz = next;
+  }
+  return 1000;
+}
+
 }  // namespace
 
 TEST(Multigrid, VCycleIsSymmetricAndPositiveDefinite) {
@@ -429,18 +467,20 @@ TEST(Multigrid, AutoGoesOnWithMultigridWhereBlockJacobiNeedsMany) {
 
 // The finest prolongator smoothed with the filtered operator A^F (hinge couplings lumped onto
 // the diagonal, multigrid.h): a sparser P and hierarchy, still an SPD preconditioner, and CG on
-// the filtered fine operator converges about as fast as with P smoothed by A itself.
+// the filtered fine operator converges about as fast as with P smoothed by A itself. (Both
+// hierarchies keep A itself as their finest operator: with lumped_fine_operator the weak blocks
+// are not in it at all.)
 TEST(Multigrid, FilteredProlongatorSmoothingIsSparserAndConvergesAsWell) {
   const int nx = 48, ny = 40;
   SmallCloth cloth(nx, ny, 10.0);
   FastLinearSystem<float> fast(cloth.mesh, *cloth.model, LinearSystemOptions{}, 2);
   fast.build(cloth.x, cloth.v, 0.0, kStep);
-  const RowOrderSystem filtered = multigrid_of(fast, cloth.mesh, sheet_filter(nx, ny), 1);
+  const RowOrderSystem filtered = multigrid_of(fast, cloth.mesh, sheet_filter(nx, ny), 1, unlumped());
   std::vector<std::pair<int, int>> edges;
   for (Eigen::Index t = 0; t < cloth.mesh.faces.rows(); ++t)
     for (int c = 0; c < 3; ++c)
       edges.emplace_back(fast.new_of_old()[cloth.mesh.faces(t, c)], fast.new_of_old()[cloth.mesh.faces(t, (c + 1) % 3)]);
-  MultigridOptions plain_options;
+  MultigridOptions plain_options = unlumped();
   plain_options.filtered_smoothing = false;
   SmoothedAggregation plain = SmoothedAggregation::from_pattern(
       fast.matrix(), graph_from_edges(cloth.mesh.vertex_count, edges), plain_options);
@@ -453,33 +493,82 @@ TEST(Multigrid, FilteredProlongatorSmoothingIsSparserAndConvergesAsWell) {
 
   // CG on the filtered fine operator (the same in both), preconditioned by each hierarchy.
   const BlockRowsF& a = plain.level_matrix(0);
-  const Eigen::Index n = 3 * static_cast<Eigen::Index>(a.rows);
-  std::mt19937 rng(11);
-  std::normal_distribution<double> g(0.0, 1.0);
-  VectorX b(n);
-  for (Eigen::Index k = 0; k < n; ++k) b[k] = g(rng);
-  auto cg_iterations = [&](const SmoothedAggregation& m) {
-    VectorX x = VectorX::Zero(n), r = b, z(n), p, q;
-    m.apply(r, z, 1);
-    EXPECT_GT(r.dot(z), 0.0);
-    p = z;
-    double rz = r.dot(z);
-    for (int it = 1; it <= 200; ++it) {
-      a.multiply(p, q, 1);
-      const double alpha = rz / p.dot(q);
-      x += alpha * p;
-      r -= alpha * q;
-      if (r.norm() < 1e-6 * b.norm()) return it;
-      m.apply(r, z, 1);
-      const double next = r.dot(z);
-      EXPECT_GT(next, 0.0) << "the preconditioner is positive definite";
-      p = z + (next / rz) * p;
-      rz = next;
-    }
-    return 1000;
-  };
-  const int with_filtered = cg_iterations(filtered.multigrid), with_plain = cg_iterations(plain);
+  const VectorX b = random_right_hand_side(a.rows, 11);
+  const int with_filtered = cg_iterations(a, filtered.multigrid, b), with_plain = cg_iterations(a, plain, b);
   std::cout << "CG to 1e-6: P smoothed by A " << with_plain << " iterations, by A^F " << with_filtered << "\n";
   EXPECT_LT(with_plain, 60);
   EXPECT_LE(with_filtered, with_plain + with_plain / 4);
+}
+
+// The finest level's lumped operator A^L (lumped_fine_operator, multigrid.h): the hinges' wing
+// couplings dropped and completed on the diagonal. Fewer blocks than the system's matrix,
+// u.A^L u >= u.A u for every u (A^L - A is PSD, so the hierarchy stays SPD however stiff the
+// bending), and as a preconditioner of the filtered system itself (CG multiplies with A) as good
+// as the hierarchy built on A while the wings are light beside their bending (the ratio of
+// kLumpedWingRatio: 1.6-6.5 and 16-65 on this crumpled 1 cm sheet); worse once they are not
+// (160-650), where FastLinearSystem keeps them (StiffWingsStayOnTheFinestLevel).
+TEST(Multigrid, LumpedFineOperatorDropsTheWeakBlocksAndBoundsTheMatrix) {
+  const int nx = 48, ny = 40;
+  for (const double bend : {1e-5, 1e-4, 1e-3}) {
+    SmallCloth cloth(nx, ny, 10.0, bend);
+    FastLinearSystem<float> fast(cloth.mesh, *cloth.model, LinearSystemOptions{}, 2);
+    fast.build(cloth.x, cloth.v, 0.0, kStep);
+    const RowOrderSystem lumped = multigrid_of(fast, cloth.mesh, sheet_filter(nx, ny), 1);
+    const RowOrderSystem plain = multigrid_of(fast, cloth.mesh, sheet_filter(nx, ny), 1, unlumped());
+    const SmoothedAggregation& l = lumped.multigrid;
+    const SmoothedAggregation& p = plain.multigrid;
+    EXPECT_EQ(static_cast<size_t>(l.pattern_blocks()), fast.matrix().block_count());
+    EXPECT_EQ(p.fine_blocks(), p.pattern_blocks());
+    // A regular sheet: 7 blocks a row (itself and six triangle neighbours) of 11-13.
+    EXPECT_LT(l.fine_blocks(), 0.6 * l.pattern_blocks()) << "bend " << bend;
+    // Filtered A^L against filtered A (the unlumped hierarchy's finest operator).
+    const BlockRowsF& a = p.level_matrix(0);
+    const BlockRowsF& al = l.level_matrix(0);
+    for (unsigned seed = 1; seed <= 10; ++seed) {
+      const VectorX u = random_right_hand_side(a.rows, seed);
+      VectorX au, alu;
+      a.multiply(u, au, 1);
+      al.multiply(u, alu, 1);
+      EXPECT_GE(u.dot(alu), u.dot(au) * (1.0 - 1e-6)) << "bend " << bend << ", vector " << seed;
+    }
+    const VectorX b = random_right_hand_side(a.rows, 17);
+    const int with_lumped = cg_iterations(a, l, b), with_plain = cg_iterations(a, p, b);
+    std::cout << "bend " << bend << ": CG to 1e-6 on A: hierarchy of A " << with_plain << " iterations, of A^L "
+              << with_lumped << " (finest blocks " << l.fine_blocks() << " of " << l.pattern_blocks() << ")\n";
+    EXPECT_LT(with_plain, 40) << "bend " << bend;
+    if (bend < 1e-3) {
+      EXPECT_LE(with_lumped, with_plain + 2) << "bend " << bend;
+    } else {
+      EXPECT_GT(with_lumped, with_plain + 5) << "stiff wings lumped: why FastLinearSystem keeps them";
+    }
+  }
+}
+
+// FastLinearSystem lumps the wings of cloth-like hinges and keeps those whose bending is stiff
+// beside the wing masses (stiff_wing_pairs, kLumpedWingRatio); either way the multigrid solve
+// is the block-Jacobi one.
+TEST(Multigrid, StiffWingsStayOnTheFinestLevel) {
+  const int nx = 36, ny = 30;
+  for (const double bend : {1e-5, 1e-2}) {
+    SmallCloth cloth(nx, ny, 10.0, bend);
+    LinearSystemOptions opt;
+    opt.precision = MatrixPrecision::kFloat64;
+    FastLinearSystem<double> fast(cloth.mesh, *cloth.model, opt, 2);
+    fast.build(cloth.x, cloth.v, 0.0, kStep);
+    const ConstraintFilter filter = sheet_filter(nx, ny);
+    const auto [jacobi, multigrid, sj, sm] = solve_both(fast, filter, PcgSettings{1e-10, 5000});
+    ASSERT_TRUE(sj.converged);
+    ASSERT_TRUE(sm.converged);
+    const SmoothedAggregation& m = *fast.multigrid();
+    const size_t wings = stiff_wing_pairs(cloth.mesh, cloth.model->materials(), fast.new_of_old(), kStep).size();
+    if (bend < 1e-3) {
+      EXPECT_EQ(wings, 0u);
+      EXPECT_LT(m.fine_blocks(), 0.6 * m.pattern_blocks());
+    } else {
+      EXPECT_EQ(wings, cloth.mesh.hinges.size());
+      EXPECT_EQ(m.fine_blocks(), m.pattern_blocks());
+    }
+    EXPECT_LT((jacobi - multigrid).norm(), 1e-7 * jacobi.norm()) << "bend " << bend;
+    EXPECT_LT(sm.iterations, sj.iterations) << "bend " << bend;
+  }
 }

@@ -112,6 +112,7 @@ void FastLinearSystem<Scalar>::build(const Positions& x, const Positions& v, dou
   const int threads = options_.threads;
   if (h != last_h_) multigrid_stale_ = true;  // h^2 K against M: a different operator
   last_h_ = h;
+  if (first_h_ == 0.0) first_h_ = h;
   compute_force_elements(model_, layout_, x, v, time, h, threads, storage_);
   reduce_transient(transient_, new_of_old_, v, h, threads, transient_rows_);
   const bool any_transient = !transient_rows_.rows.empty();
@@ -283,6 +284,28 @@ PcgStats FastLinearSystem<Scalar>::solve_with(const ConstraintFilter& filter, Ve
   return stats;
 }
 
+// The finest level lumps a hinge's wing coupling W (multigrid.h): exact on translations and
+// smooth bending of a flat hinge, it stiffens a folded hinge's wings by about |W| theta^2, which
+// CG does not notice while |W| is small beside the wing masses (cloth of a centimetre or more:
+// h^2 k_bend w_e |g_2| |g_3| / m is 0.03-0.05 on `weft bench solver`'s sheets, 1.5-6 for cotton at
+// 1 cm and 1/96 s) and does once it is not (a crumpled 1 cm test sheet: as many iterations at
+// 16-65, 1.7x at 160-650; gtest Multigrid.StiffWingsStayOnTheFinestLevel). The ratio uses the
+// rest shape and the first build's step, so a resumed run decides as the original did.
+std::vector<std::pair<int, int>> stiff_wing_pairs(const ClothMesh& mesh, const ClothMaterials& materials,
+                                                  const std::vector<int>& new_of_old, double h) {
+  std::vector<std::pair<int, int>> pairs;
+  for (size_t e = 0; e < mesh.hinges.size(); ++e) {
+    const Hinge& hinge = mesh.hinges[e];
+    const double a0 = mesh.rest_area[mesh.hinge_faces[e][0]], a1 = mesh.rest_area[mesh.hinge_faces[e][1]];
+    const double edge_squared = mesh.hinge_weight[e] * (a0 + a1) / 3.0;  // w_e = 3 |e|^2 / (A0 + A1)
+    // |g_w| = |e| / (2 A_w): the angle's gradient at a wing vertex, one over its height.
+    const double coupling = h * h * materials.hinge_bend[e] * mesh.hinge_weight[e] * edge_squared / (4.0 * a0 * a1);
+    const double mass = std::min(materials.vertex_mass[hinge[2]], materials.vertex_mass[hinge[3]]);
+    if (!(coupling <= kLumpedWingRatio * mass)) pairs.emplace_back(new_of_old[hinge[2]], new_of_old[hinge[3]]);
+  }
+  return pairs;
+}
+
 template <class Scalar>
 bool FastLinearSystem<Scalar>::prepare_multigrid(int threads) {
   if (multigrid_unusable_) return false;
@@ -296,8 +319,9 @@ bool FastLinearSystem<Scalar>::prepare_multigrid(int threads) {
       for (int c = 0; c < 3; ++c)
         edges.emplace_back(new_of_old_[mesh_.faces(f, c)], new_of_old_[mesh_.faces(f, (c + 1) % 3)]);
     try {
-      multigrid_ = std::make_unique<SmoothedAggregation>(
-          SmoothedAggregation::from_pattern(matrix_, graph_from_edges(mesh_.vertex_count, edges)));
+      multigrid_ = std::make_unique<SmoothedAggregation>(SmoothedAggregation::from_pattern(
+          matrix_, graph_from_edges(mesh_.vertex_count, edges), MultigridOptions{},
+          graph_from_edges(mesh_.vertex_count, stiff_wing_pairs(mesh_, model_.materials(), new_of_old_, first_h_))));
     } catch (const std::invalid_argument&) {  // no useful hierarchy (coarsening stalled)
       multigrid_unusable_ = true;
       return false;

@@ -25,6 +25,14 @@ namespace weft {
 
 constexpr int kParallelSolveRows = 2048;  // smaller systems solve on one thread (barriers: weft/__init__.py)
 constexpr int kMultigridMaxAge = 7;  // solves that may reuse the hierarchy's values (fast_linear_system.cpp)
+// A hinge whose wing coupling h^2 k_bend w_e |g_2| |g_3| (rest geometry, nominal step) exceeds
+// this many times the lighter wing vertex's mass keeps the coupling on multigrid's finest level
+// instead of lumping it (MultigridOptions::lumped_fine_operator; fast_linear_system.cpp).
+constexpr double kLumpedWingRatio = 16.0;
+
+// The wing pairs (row numbering: new_of_old) of the hinges above kLumpedWingRatio for step h.
+std::vector<std::pair<int, int>> stiff_wing_pairs(const ClothMesh& mesh, const ClothMaterials& materials,
+                                                  const std::vector<int>& new_of_old, double h);
 
 template <class Scalar>
 class FastLinearSystem final : public LinearSystemPath {
@@ -96,6 +104,7 @@ class FastLinearSystem final : public LinearSystemPath {
   int refreshed_constrained_ = 0;              // the filter of the last refresh: constrained vertices
   std::vector<Mat3> refreshed_projection_;     // and, when there were any, their projections
   double last_h_ = 0.0;
+  double first_h_ = 0.0;  // step of the first build: the nominal step (stiff_wing_pairs)
   bool last_multigrid_ = false;
   bool multigrid_unusable_ = false;  // the pattern gave no hierarchy: block Jacobi
   // kAuto below kMultigridAutoVertices: a block-Jacobi solve that needed more than

@@ -195,18 +195,21 @@ template struct BlockRowsOf<float>;
 template struct BlockRowsOf<double>;
 
 SmoothedAggregation::SmoothedAggregation(const std::vector<int>& row_start, const std::vector<int>& columns,
-                                         const Graph& strength, const MultigridOptions& options)
+                                         const Graph& strength, const MultigridOptions& options, const Graph& kept)
     : options_(options) {
   if (options_.smoother_degree < 1) throw std::invalid_argument("multigrid smoother degree must be at least 1");
+  const int rows = static_cast<int>(row_start.size()) - 1;
+  if (strength.size() != rows) throw std::invalid_argument("strength graph and pattern differ in size");
+  pattern_blocks_ = static_cast<int>(columns.size());
   levels_.emplace_back();
   {
     BlockRowsF& a = levels_[0].a;
-    a.rows = a.cols = static_cast<int>(row_start.size()) - 1;
+    a.rows = a.cols = rows;
     a.start = row_start;
     a.column = columns;
-    a.value.assign(columns.size(), Mat3f::Zero());
+    if (options_.lumped_fine_operator) lump_pattern(strength, kept);
+    a.value.assign(a.column.size(), Mat3f::Zero());
   }
-  if (strength.size() != levels_[0].a.rows) throw std::invalid_argument("strength graph and pattern differ in size");
   Graph g = strength;
   for (int l = 0;; ++l) {
     Level& level = levels_[l];
@@ -251,6 +254,58 @@ SmoothedAggregation::SmoothedAggregation(const std::vector<int>& row_start, cons
     }
     g = std::move(next);
   }
+}
+
+Mat3 diagonal_completion(const Mat3& w) {
+  int column = 0, row = 0;
+  for (int k = 1; k < 3; ++k) {
+    if (w.col(k).squaredNorm() > w.col(column).squaredNorm()) column = k;
+    if (w.row(k).squaredNorm() > w.row(row).squaredNorm()) row = k;
+  }
+  const double column_norm = w.col(column).norm(), row_norm = w.row(row).norm();
+  if (column_norm == 0.0 || row_norm == 0.0) return Mat3::Zero();
+  const Vec3 u = w.col(column) / column_norm;
+  const Vec3 v = w.row(row).transpose() / row_norm;
+  const double s = u.dot(w * v);
+  const double rest = (w - s * u * v.transpose()).norm();
+  return std::abs(s) * u * u.transpose() + rest * Mat3::Identity();
+}
+
+void SmoothedAggregation::lump_pattern(const Graph& strength, const Graph& kept) {
+  const bool any_kept = !kept.offsets.empty();
+  if (any_kept && kept.size() != levels_[0].a.rows) throw std::invalid_argument("kept graph and pattern differ in size");
+  BlockRowsF& a = levels_[0].a;
+  std::vector<int> start(1, 0), column;
+  column.reserve(a.column.size());
+  fine_source_.clear();
+  weak_start_.assign(1, 0);
+  weak_blocks_.clear();
+  for (int i = 0; i < a.rows; ++i) {
+    const auto first = strength.neighbors.begin() + strength.offsets[i];
+    const auto last = strength.neighbors.begin() + strength.offsets[i + 1];
+    for (int k = a.start[i]; k < a.start[i + 1]; ++k) {
+      const int j = a.column[k];
+      const bool keep = any_kept && std::find(kept.neighbors.begin() + kept.offsets[i],
+                                                       kept.neighbors.begin() + kept.offsets[i + 1], j) !=
+                                                 kept.neighbors.begin() + kept.offsets[i + 1];
+      if (j == i || keep || std::find(first, last, j) != last) {
+        column.push_back(j);
+        fine_source_.push_back(k);
+      } else {
+        weak_blocks_.push_back(k);
+      }
+    }
+    start.push_back(static_cast<int>(column.size()));
+    weak_start_.push_back(static_cast<int>(weak_blocks_.size()));
+  }
+  if (weak_blocks_.empty()) {  // nothing to lump: level 0 is the pattern itself
+    fine_source_.clear();
+    weak_start_.clear();
+    return;
+  }
+  a.start = std::move(start);
+  a.column = std::move(column);
+  lumped_diagonal_.assign(a.rows, Mat3::Zero());
 }
 
 void SmoothedAggregation::mark_weak_blocks(Level& level, const Graph& strength) {
@@ -341,8 +396,8 @@ double SmoothedAggregation::operator_complexity() const {
 
 void SmoothedAggregation::update_blocks(const std::vector<Mat3>& fine_blocks, const ConstraintFilter& filter,
                                         int threads) {
-  if (fine_blocks.size() != levels_[0].a.value.size()) throw std::invalid_argument("multigrid: wrong block count");
-  for (size_t k = 0; k < fine_blocks.size(); ++k) levels_[0].a.value[k] = fine_blocks[k].cast<float>();
+  if (fine_blocks.size() != static_cast<size_t>(pattern_blocks_)) throw std::invalid_argument("multigrid: wrong block count");
+  copy_fine_values([&fine_blocks](int k) -> Mat3f { return fine_blocks[k].cast<float>(); }, threads);
   update_values(filter, threads);
 }
 
@@ -394,6 +449,20 @@ void SmoothedAggregation::filter_fine_level(const ConstraintFilter& filter, int 
     }
   } else {
     std::fill(fine.near_null.begin(), fine.near_null.end(), Mat3::Identity());
+  }
+  if (lumped_diagonal_.empty()) return;
+  // A^L: the dropped blocks' completions on the diagonal, filtered (S_i X S_i; the identity of
+  // the constrained directions stays as the filter left it).
+  const bool filtered = filter.constrained_vertices > 0;
+#pragma omp parallel for schedule(static) num_threads(th) if (th > 1)
+  for (int i = 0; i < n; ++i) {
+    const Mat3& x = lumped_diagonal_[i];
+    Mat3 add = filtered && filter.projection[i] != Mat3::Identity()
+                   ? Mat3(filter.projection[i] * x * filter.projection[i])
+                   : x;
+    add = 0.5 * (add + add.transpose()).eval();  // symmetric bit for bit
+    Mat3f& d = fine.a.value[fine.diagonal[i]];
+    d = (d.cast<double>() + add).cast<float>();
   }
 }
 

@@ -15,6 +15,12 @@
 //                 the filtered A^F and its lumped diagonal (MultigridOptions::filtered_smoothing);
 //   coarse        A_c = P^T A P + (I - Q): the same pre-filtered form one level down, so every
 //                 level is SPD; B_c,J = G_J^(1/2).
+// The finest level's A is not the system's matrix but its lumped form A^L (MultigridOptions::
+// lumped_fine_operator): the blocks outside the strength graph (a hinge's coupling of its two
+// wing vertices) dropped and completed on the two rows' diagonals so that A^L - A >= 0 and A^L
+// acts on a flat hinge's translations and smooth bending as A does. A^L stays SPD and has about
+// half of A's blocks: the cycle's products on the finest level, the bulk of its cost, stream
+// half the bytes. Stiff wings (the `kept` graph: FastLinearSystem's stiff_wing_pairs) stay.
 // Level operators are stored in float32 (values rounded once, symmetric bit for bit; setup
 // arithmetic in double, the cycle's products by the BCRS float32 kernel); prolongators in double. Coarsest level: dense Cholesky (Eigen LLT). Cycle: V(1,1) with Chebyshev smoothing of
 // D^-1 A on [upper / 30, upper], upper = 1.1 rho, the same polynomial before and after the
@@ -72,17 +78,40 @@ struct MultigridOptions {
   // 1996; pyamg's filtered smoothing): a sparser P, A P and coarse operator, a cheaper setup
   // and cycle. false: P smoothed with A itself.
   bool filtered_smoothing = true;
+  // The finest level's operator drops the blocks outside the strength graph (bending's coupling
+  // W of a hinge's two wing vertices i, j, which share no triangle edge) and completes each
+  // dropped pair on the two diagonals so that the change is positive semi-definite:
+  // A^L = A + sum over pairs of [[X, -W], [-W^T, Y]] with W = s u v^T + R (u, v unit: W's
+  // dominant column and row directions, R the rest), X = |s| u u^T + |R| I, Y = |s| v v^T + |R| I
+  // (|R| Frobenius): the pair term is |s| (u; -sign(s) v)(u; -sign(s) v)^T plus a term that
+  // |R| bounds, both >= 0. So A^L >= A and A^L is SPD wherever A is. A hinge's wing block is
+  // rank one (bending and its damping act along one gradient), so R vanishes up to rounding,
+  // and on a flat hinge u = sign(s) v (both wings move along the normal): A^L acts on
+  // translations and on smooth bending as A does, where the plain bound |W| I on both diagonals
+  // stiffened exactly those modes (twice the iterations on a fine, light sheet). Filtered
+  // (S_i X S_i): the same bound for S A S. The cycle (smoothing, residuals) and the coarse
+  // levels see A^L, CG multiplies with A: the preconditioner stays SPD and CG exact, with the
+  // finest level's products over about half the blocks (a regular sheet: 7 of 13 per row). With
+  // it filtered_smoothing has nothing left to filter on the finest level.
+  bool lumped_fine_operator = true;
 };
+
+// Row i's share of the positive semi-definite completion of a dropped off-diagonal block W = A_ij
+// (lumped_fine_operator): |s| u u^T + |R| I, u W's dominant column direction, v its dominant row
+// direction, s = u^T W v, R = W - s u v^T. Row j, computing the same from A_ji = W^T, gets
+// |s| v v^T + |R| I. (Ties between columns or rows go to the first, so both rows agree.)
+Mat3 diagonal_completion(const Mat3& w);
 
 class SmoothedAggregation {
  public:
   // Fine pattern in row order (row_start, sorted absolute columns with the diagonal) and the
-  // strength graph of the finest level (same numbering).
+  // strength graph of the finest level (same numbering). `kept`: couplings outside the strength
+  // graph that lumped_fine_operator must not drop (stiff bending; empty: none).
   SmoothedAggregation(const std::vector<int>& row_start, const std::vector<int>& columns, const Graph& strength,
-                      const MultigridOptions& options = {});
+                      const MultigridOptions& options = {}, const Graph& kept = {});
   template <class Scalar>
   static SmoothedAggregation from_pattern(const BcrsMatrix<Scalar>& a, const Graph& strength,
-                                          const MultigridOptions& options = {});
+                                          const MultigridOptions& options = {}, const Graph& kept = {});
 
   // Values of every level for the fixed part of `a` filtered by `filter` (row order).
   // keep_bounds: the smoothers' spectral radii of the last update() stay (no Lanczos), for a
@@ -93,12 +122,16 @@ class SmoothedAggregation {
   // coarse levels, prolongators and smoother bounds stay those of the last update().
   template <class Scalar>
   void update_fine(const BcrsMatrix<Scalar>& a, const ConstraintFilter& filter, int threads);
-  // Same as update, from the unfiltered fine blocks (in the pattern's block order) - tests.
+  // Same as update, from the unfiltered fine blocks (in the given pattern's block order) - tests.
   void update_blocks(const std::vector<Mat3>& fine_blocks, const ConstraintFilter& filter, int threads);
   // z = B r: one V(1,1) cycle from zero. The caller filters r and z (pcg.h).
   void apply(const VectorX& r, VectorX& z, int threads) const;
 
   int levels() const { return static_cast<int>(levels_.size()); }
+  // Blocks of the pattern the hierarchy was built for (the system's matrix) and of the finest
+  // level's operator (fewer when lumped_fine_operator dropped the weak ones).
+  int pattern_blocks() const { return pattern_blocks_; }
+  int fine_blocks() const { return static_cast<int>(levels_[0].a.value.size()); }
   std::vector<int> level_rows() const;
   double operator_complexity() const;  // blocks of all levels / blocks of the finest
   // Blocks of level l's prolongator (l below the coarsest).
@@ -137,9 +170,15 @@ class SmoothedAggregation {
   bool coarsen_structure(int l, const Graph& strength);
   // Level::weak from the strength graph (cleared when every block is strong).
   static void mark_weak_blocks(Level& level, const Graph& strength);
+  // lumped_fine_operator: level 0's pattern becomes the given one's strong and kept blocks.
+  void lump_pattern(const Graph& strength, const Graph& kept);
   void update_values(const ConstraintFilter& filter, int threads, bool keep_bounds = false);  // level 0's blocks copied
   void update_fine_values(const ConstraintFilter& filter, int threads);
   void filter_fine_level(const ConstraintFilter& filter, int threads);  // S A S + I - S in place, B_i = S_i
+  // Level 0's values from the pattern's blocks (block(k): block k of the pattern as a Mat3f;
+  // lumped_diagonal_ from the dropped ones).
+  template <class BlockOf>
+  void copy_fine_values(BlockOf&& block, int threads);
   template <class Scalar>
   void copy_fine_blocks(const BcrsMatrix<Scalar>& a, int threads);
   void update_level_values(int l, int threads, bool keep_bounds);
@@ -155,28 +194,53 @@ class SmoothedAggregation {
 
   MultigridOptions options_;
   std::vector<Level> levels_;
+  int pattern_blocks_ = 0;
+  // With lumped_fine_operator: the pattern's block of each of level 0's blocks, per row the
+  // pattern's blocks dropped (weak_start_, weak_blocks_) and the sum of their diagonal
+  // completions (lumped_diagonal_, added on the diagonal by filter_fine_level). All empty when
+  // nothing is dropped.
+  std::vector<int> fine_source_, weak_start_, weak_blocks_;
+  std::vector<Mat3> lumped_diagonal_;
   bool bounds_estimated_ = false;  // every level's rho comes from a Lanczos estimate
   Eigen::LLT<Eigen::MatrixXd> coarse_solver_;
 };
 
 template <class Scalar>
 SmoothedAggregation SmoothedAggregation::from_pattern(const BcrsMatrix<Scalar>& a, const Graph& strength,
-                                                      const MultigridOptions& options) {
+                                                      const MultigridOptions& options, const Graph& kept) {
   std::vector<int> start(a.rows() + 1), columns;
   columns.reserve(a.block_count());
   for (int r = 0; r < a.rows(); ++r) {
     for (int k = a.row_begin(r); k < a.row_end(r); ++k) columns.push_back(a.column(k, r));
     start[r + 1] = static_cast<int>(columns.size());
   }
-  return SmoothedAggregation(start, columns, strength, options);
+  return SmoothedAggregation(start, columns, strength, options, kept);
+}
+
+template <class BlockOf>
+void SmoothedAggregation::copy_fine_values(BlockOf&& block, int threads) {
+  BlockRowsF& fine = levels_[0].a;
+  if (fine_source_.empty()) {
+#pragma omp parallel for schedule(static) num_threads(threads)
+    for (std::int64_t k = 0; k < static_cast<std::int64_t>(fine.value.size()); ++k)
+      fine.value[k] = block(static_cast<int>(k));
+    return;
+  }
+#pragma omp parallel for schedule(static) num_threads(threads)
+  for (int i = 0; i < fine.rows; ++i) {
+    for (int k = fine.start[i]; k < fine.start[i + 1]; ++k) fine.value[k] = block(fine_source_[k]);
+    Mat3 completion = Mat3::Zero();
+    for (int m = weak_start_[i]; m < weak_start_[i + 1]; ++m)
+      completion += diagonal_completion(block(weak_blocks_[m]).template cast<double>());
+    lumped_diagonal_[i] = completion;
+  }
 }
 
 template <class Scalar>
 void SmoothedAggregation::copy_fine_blocks(const BcrsMatrix<Scalar>& a, int threads) {
-  std::vector<Mat3f>& blocks = levels_[0].a.value;
-#pragma omp parallel for schedule(static) num_threads(threads)
-  for (std::int64_t k = 0; k < static_cast<std::int64_t>(blocks.size()); ++k)
-    blocks[k] = Eigen::Map<const Eigen::Matrix<Scalar, 3, 3>>(a.block(static_cast<int>(k))).template cast<float>();
+  copy_fine_values(
+      [&a](int k) -> Mat3f { return Eigen::Map<const Eigen::Matrix<Scalar, 3, 3>>(a.block(k)).template cast<float>(); },
+      threads);
 }
 
 template <class Scalar>
