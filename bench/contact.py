@@ -3,7 +3,10 @@ weft and, with `--peer blender`, by Blender cloth in the same run (same scene, s
 same thread count), one table row per (scene, solver), metrics from `bench.contact_metrics`.
 
     python -m bench.contact [--json PATH] [--peer blender] [--scenes a,b] [--frames N] [--threads 2] [--repeat N]
-                            [--perturb N] [--module PATH]
+                            [--perturb N] [--module PATH] [--scene-arg KEY=VALUE ...]
+
+`--scene-arg` passes keyword arguments to the scene builders (`scenes/contact.py`): `--scenes
+thin_limb,box_pinch --scene-arg n=96` runs both on a 96 x 96 sheet instead of their bench sizes.
 
 s/frame is the wall time of each simulated frame (weft: `Simulation.advance_frame`; Blender:
 `scene.frame_set`), mean and max over the frames after the initial one (the setup, building
@@ -67,16 +70,18 @@ DEFAULT_FRAMES = {
 
 
 def build_scene(name: str, directory: Path, frames: int, features: dict[str, Any] | None = None,
-                thickness_scale: float = 1.0) -> Any:
+                thickness_scale: float = 1.0, scene_args: dict[str, Any] | None = None) -> Any:
     """The resolved weft scene of a named contact scene, at least `frames` long when the builder
     takes a frame count; `features` overrides switches of the shot's `features`;
-    `thickness_scale` scales every cloth piece's thickness (`--perturb`)."""
+    `thickness_scale` scales every cloth piece's thickness (`--perturb`); `scene_args` are more
+    keyword arguments of the scene's builder (`--scene-arg`, checked by `scene_arg_errors`)."""
     from scenes.contact import SCENES
     from weft.shot import parse_shot
     from weft.solver_setup import resolve_scene
 
     make = SCENES[name]
     kwargs = {"frames": frames} if "frames" in inspect.signature(make).parameters else {}
+    kwargs.update(scene_args or {})
     shot = make(directory, **kwargs)
     if features:
         shot["features"] = {**shot.get("features", {}), **features}
@@ -85,6 +90,50 @@ def build_scene(name: str, directory: Path, frames: int, features: dict[str, Any
 
         scale_thickness(shot, thickness_scale)
     return resolve_scene(parse_shot(shot), directory)
+
+
+def parse_scene_args(items: list[str]) -> dict[str, Any]:
+    """`--scene-arg KEY=VALUE` items as builder keyword arguments: VALUE as an int, else a float,
+    else the string. ValueError names an item without `=` or with an empty key."""
+    parsed: dict[str, Any] = {}
+    for item in items:
+        key, sep, text = item.partition("=")
+        if not sep or not key.strip():
+            raise ValueError(f"{item!r} is not KEY=VALUE")
+        value: Any = text
+        for kind in (int, float):
+            try:
+                value = kind(text)
+                break
+            except ValueError:
+                continue
+        parsed[key.strip()] = value
+    return parsed
+
+
+def scene_arg_errors(names: list[str], scene_args: dict[str, Any]) -> list[str]:
+    """Why `scene_args` cannot go to every named scene's builder: a key one of them does not take
+    (its own parameters are listed), or `frames`, which `--frames` sets. A builder that passes
+    further keywords on (`**kwargs`: the dresses) is tried once, two frames long, in a scratch
+    directory."""
+    from scenes.contact import SCENES
+
+    if "frames" in scene_args:
+        return ["frames is set by --frames"]
+    errors = []
+    for name in names:
+        parameters = inspect.signature(SCENES[name]).parameters
+        if any(p.kind is inspect.Parameter.VAR_KEYWORD for p in parameters.values()):
+            with tempfile.TemporaryDirectory(prefix=f"weft-scene-args-{name}-") as tmp:
+                try:
+                    SCENES[name](Path(tmp), frames=2, **scene_args)
+                except TypeError as exc:
+                    errors.append(f"{name}: {exc}")
+            continue
+        own = [p for p in parameters if p not in ("directory", "frames")]
+        errors += [f"{name} takes no {key!r} (its arguments: {', '.join(own) or 'none'})"
+                   for key in scene_args if key not in own]
+    return errors
 
 
 def run_weft(scene: Any, frames: int, threads: int) -> dict[str, Any]:
@@ -169,14 +218,15 @@ def repeated_timing(row: dict[str, Any], frame_seconds: list[np.ndarray]) -> Non
 
 
 def run_scene(name: str, frames: int | None, threads: int, peer: str | None,
-              blender_mass: str = "mapped", self_cost: bool = False, repeat: int = 1) -> list[dict[str, Any]]:
+              blender_mass: str = "mapped", self_cost: bool = False, repeat: int = 1,
+              scene_args: dict[str, Any] | None = None) -> list[dict[str, Any]]:
     """One scene: weft (and the peer) `repeat` times, alternating which goes first, so that both
     see the machine's slow and fast spells alike; metrics from each solver's first run."""
     if repeat < 1:
         raise ValueError("repeat must be at least 1")
     with tempfile.TemporaryDirectory(prefix=f"weft-contact-{name}-") as tmp:
         wanted = frames or DEFAULT_FRAMES[name]
-        scene = build_scene(name, Path(tmp), wanted)
+        scene = build_scene(name, Path(tmp), wanted, scene_args=scene_args)
         wanted = min(wanted, scene.frame_count)
         weft_runs: list[dict[str, Any]] = []
         peer_runs: list[dict[str, Any]] = []
@@ -212,7 +262,7 @@ def run_scene(name: str, frames: int | None, threads: int, peer: str | None,
         rows = [row]
         if self_cost and scene.shot.features.self_collision is not False:
             # The same scene with self-collision switched off, run right after: what it costs.
-            off = build_scene(name, Path(tmp), wanted, {"self_collision": False})
+            off = build_scene(name, Path(tmp), wanted, {"self_collision": False}, scene_args=scene_args)
             off_run = run_weft(off, wanted, threads)
             off_row = measure(off, "weft", off_run, threads)
             off_row.update(scene=name, solver="weft, self off", failure=off_run["failure"],
@@ -240,7 +290,8 @@ def run_scene(name: str, frames: int | None, threads: int, peer: str | None,
         return rows
 
 
-def run_perturbed(name: str, frames: int, threads: int, count: int) -> dict[str, Any]:
+def run_perturbed(name: str, frames: int, threads: int, count: int,
+                  scene_args: dict[str, Any] | None = None) -> dict[str, Any]:
     """weft on `count` thickness-perturbed copies of scene `name` (`--perturb`), summarised by
     `bench.contact_robustness`."""
     from bench.contact_robustness import copy_summary, summarise, thickness_factors
@@ -248,7 +299,7 @@ def run_perturbed(name: str, frames: int, threads: int, count: int) -> dict[str,
     copies = []
     for factor in thickness_factors(count):
         with tempfile.TemporaryDirectory(prefix=f"weft-perturbed-{name}-") as tmp:
-            scene = build_scene(name, Path(tmp), frames, thickness_scale=factor)
+            scene = build_scene(name, Path(tmp), frames, thickness_scale=factor, scene_args=scene_args)
             run = run_weft(scene, min(frames, scene.frame_count), threads)
             copies.append(copy_summary(factor, run, measure(scene, "weft", run, threads)))
     return summarise(name, copies)
@@ -338,11 +389,21 @@ def main(argv: list[str] | None = None) -> int:
                         help="also run weft with self-collision off: the cost of self-collision per scene")
     parser.add_argument("--module", help="path of a weft._solver extension to run instead of the installed one "
                         "(another build, measured against this one in a run of its own)")
+    parser.add_argument("--scene-arg", action="append", default=[], metavar="KEY=VALUE",
+                        help="a keyword argument of the scene builders in scenes/contact.py, e.g. n=96 for a "
+                             "96 x 96 sheet (repeatable; every chosen scene must take it)")
     args = parser.parse_args(argv)
     names = args.scenes.split(",") if args.scenes else list(DEFAULT_FRAMES)
     unknown = [n for n in names if n not in DEFAULT_FRAMES]
     if unknown:
         parser.error(f"unknown scene(s) {unknown}; choose from {list(DEFAULT_FRAMES)}")
+    try:
+        scene_args = parse_scene_args(args.scene_arg)
+    except ValueError as exc:
+        parser.error(f"--scene-arg: {exc}")
+    errors = scene_arg_errors(names, scene_args)
+    if errors:
+        parser.error("--scene-arg: " + "; ".join(errors))
     if args.repeat < 1:
         parser.error("--repeat must be at least 1")
     if args.perturb < 0:
@@ -374,12 +435,13 @@ def main(argv: list[str] | None = None) -> int:
     for name in names:
         console.print(f"[dim]{name} ...[/dim]")
         rows.extend(run_scene(name, args.frames, args.threads, args.peer, args.blender_mass, args.self_cost,
-                              args.repeat))
+                              args.repeat, scene_args))
     perturbed: list[dict[str, Any]] = []
     if args.perturb:
         for name in names:
             console.print(f"[dim]{name}: {args.perturb} perturbed copies ...[/dim]")
-            perturbed.append(run_perturbed(name, args.frames or DEFAULT_FRAMES[name], args.threads, args.perturb))
+            perturbed.append(run_perturbed(name, args.frames or DEFAULT_FRAMES[name], args.threads, args.perturb,
+                                           scene_args))
     for table in format_tables(rows):
         console.print(table)
     if perturbed:
@@ -390,7 +452,7 @@ def main(argv: list[str] | None = None) -> int:
         args.json.parent.mkdir(parents=True, exist_ok=True)
         report = {"threads": args.threads, "peer": args.peer, "repeat": args.repeat, "blender_mass": args.blender_mass, "cpus": os.cpu_count(), "machine": platform.platform(),
                   "load_average_before": load_before, "load_average_after": os.getloadavg(), "rows": rows,
-                  "perturb": args.perturb, "perturbed": perturbed, "module": args.module}
+                  "perturb": args.perturb, "perturbed": perturbed, "module": args.module, "scene_args": scene_args}
         args.json.write_text(json.dumps(report, indent=1, default=float))
         console.print(f"wrote {args.json}")
     return 0

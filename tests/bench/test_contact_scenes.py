@@ -315,3 +315,34 @@ def test_friction_carries_the_cloth_round_the_spinning_sphere(tmp_path: Path) ->
     assert 0.6 < np.median(cloth_turn) / sphere_turn < 1.05
     assert np.linalg.norm(x, axis=2).min() > 0.3  # outside the sphere in every frame
     assert all(t.intersections == 0 for t in run["telemetry"])
+
+
+def test_scene_args_reach_the_builder_and_size_the_scene() -> None:
+    from bench.contact import parse_scene_args, run_scene
+
+    args = parse_scene_args(["n=7", "speed=2.5", "note=x"])
+    assert args == {"n": 7, "speed": 2.5, "note": "x"}
+    assert isinstance(args["n"], int) and isinstance(args["speed"], float)
+    (row,) = run_scene("thin_limb", 3, 1, None, scene_args={"n": 7})
+    assert row["vertices"] == 49 and row["simulated_frames"] == 2 and not row["nan"]
+
+
+@pytest.mark.parametrize("items, message", [
+    (["n"], "'n' is not KEY=VALUE"),
+    (["=4"], "is not KEY=VALUE"),
+    (["frames=4"], "frames is set by --frames"),
+    (["radius=0.1"], "thin_limb takes no 'radius' (its arguments: n, speed"),
+    (["around=8", "nope=1"], "walking_dress: articulated_dress() got an unexpected keyword argument"),
+])
+def test_bad_scene_args_are_named_before_anything_runs(items: list[str], message: str,
+                                                        capsys: pytest.CaptureFixture[str]) -> None:
+    from bench.contact import main
+
+    argv = ["--scenes", "thin_limb" if "around=8" not in items else "walking_dress"]
+    for item in items:
+        argv += ["--scene-arg", item]
+    with pytest.raises(SystemExit) as exc:
+        main(argv)
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert "--scene-arg" in err and message in err
