@@ -256,21 +256,6 @@ SmoothedAggregation::SmoothedAggregation(const std::vector<int>& row_start, cons
   }
 }
 
-Mat3 diagonal_completion(const Mat3& w) {
-  int column = 0, row = 0;
-  for (int k = 1; k < 3; ++k) {
-    if (w.col(k).squaredNorm() > w.col(column).squaredNorm()) column = k;
-    if (w.row(k).squaredNorm() > w.row(row).squaredNorm()) row = k;
-  }
-  const double column_norm = w.col(column).norm(), row_norm = w.row(row).norm();
-  if (column_norm == 0.0 || row_norm == 0.0) return Mat3::Zero();
-  const Vec3 u = w.col(column) / column_norm;
-  const Vec3 v = w.row(row).transpose() / row_norm;
-  const double s = u.dot(w * v);
-  const double rest = (w - s * u * v.transpose()).norm();
-  return std::abs(s) * u * u.transpose() + rest * Mat3::Identity();
-}
-
 void SmoothedAggregation::lump_pattern(const Graph& strength, const Graph& kept) {
   const bool any_kept = !kept.offsets.empty();
   if (any_kept && kept.size() != levels_[0].a.rows) throw std::invalid_argument("kept graph and pattern differ in size");

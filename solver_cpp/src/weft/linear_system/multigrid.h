@@ -36,7 +36,9 @@
 #pragma once
 
 #include <Eigen/Cholesky>
+#include <algorithm>
 #include <array>
+#include <cmath>
 #include <vector>
 
 #include "weft/common/types.h"
@@ -96,11 +98,44 @@ struct MultigridOptions {
   bool lumped_fine_operator = true;
 };
 
-// Row i's share of the positive semi-definite completion of a dropped off-diagonal block W = A_ij
-// (lumped_fine_operator): |s| u u^T + |R| I, u W's dominant column direction, v its dominant row
-// direction, s = u^T W v, R = W - s u v^T. Row j, computing the same from A_ji = W^T, gets
-// |s| v v^T + |R| I. (Ties between columns or rows go to the first, so both rows agree.)
-Mat3 diagonal_completion(const Mat3& w);
+// Adds to `completion` row i's share of the positive semi-definite completion of a dropped
+// off-diagonal block W = A_ij (lumped_fine_operator): |s| u u^T + |R| I, u W's dominant column
+// direction, v its dominant row direction, s = u^T W v, |R| = |W - s u v^T| (Frobenius:
+// sqrt(|W|^2 - s^2), R being orthogonal to u v^T). Row j, computing the same from A_ji = W^T,
+// adds |s| v v^T + |R| I: its column norms are row i's row norms, summed in the same order, so
+// both rows pick the same directions (ties go to the first). Scalar code: it runs for every
+// dropped block at every solve.
+inline void add_diagonal_completion(const Mat3f& block, Mat3& completion) {
+  double w[3][3], column_squares[3] = {0.0, 0.0, 0.0}, row_squares[3] = {0.0, 0.0, 0.0};
+  for (int a = 0; a < 3; ++a)
+    for (int b = 0; b < 3; ++b) {
+      w[a][b] = block(a, b);
+      const double square = w[a][b] * w[a][b];
+      column_squares[b] += square;
+      row_squares[a] += square;
+    }
+  int column = 0, row = 0;
+  for (int k = 1; k < 3; ++k) {
+    if (column_squares[k] > column_squares[column]) column = k;
+    if (row_squares[k] > row_squares[row]) row = k;
+  }
+  if (column_squares[column] == 0.0 || row_squares[row] == 0.0) return;
+  const double column_scale = 1.0 / std::sqrt(column_squares[column]), row_scale = 1.0 / std::sqrt(row_squares[row]);
+  double u[3], v[3];
+  for (int k = 0; k < 3; ++k) {
+    u[k] = w[k][column] * column_scale;
+    v[k] = w[row][k] * row_scale;
+  }
+  double s = 0.0;
+  for (int a = 0; a < 3; ++a) s += u[a] * (w[a][0] * v[0] + w[a][1] * v[1] + w[a][2] * v[2]);
+  const double frobenius_squared = column_squares[0] + column_squares[1] + column_squares[2];
+  const double rest = std::sqrt(std::max(0.0, frobenius_squared - s * s));
+  const double weight = std::abs(s);
+  for (int a = 0; a < 3; ++a) {
+    for (int b = 0; b < 3; ++b) completion(a, b) += weight * u[a] * u[b];
+    completion(a, a) += rest;
+  }
+}
 
 class SmoothedAggregation {
  public:
@@ -230,8 +265,7 @@ void SmoothedAggregation::copy_fine_values(BlockOf&& block, int threads) {
   for (int i = 0; i < fine.rows; ++i) {
     for (int k = fine.start[i]; k < fine.start[i + 1]; ++k) fine.value[k] = block(fine_source_[k]);
     Mat3 completion = Mat3::Zero();
-    for (int m = weak_start_[i]; m < weak_start_[i + 1]; ++m)
-      completion += diagonal_completion(block(weak_blocks_[m]).template cast<double>());
+    for (int m = weak_start_[i]; m < weak_start_[i + 1]; ++m) add_diagonal_completion(block(weak_blocks_[m]), completion);
     lumped_diagonal_[i] = completion;
   }
 }
