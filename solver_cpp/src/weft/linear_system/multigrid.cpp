@@ -266,14 +266,9 @@ void SmoothedAggregation::lump_pattern(const Graph& strength, const Graph& kept)
   weak_start_.assign(1, 0);
   weak_blocks_.clear();
   for (int i = 0; i < a.rows; ++i) {
-    const auto first = strength.neighbors.begin() + strength.offsets[i];
-    const auto last = strength.neighbors.begin() + strength.offsets[i + 1];
     for (int k = a.start[i]; k < a.start[i + 1]; ++k) {
       const int j = a.column[k];
-      const bool keep = any_kept && std::find(kept.neighbors.begin() + kept.offsets[i],
-                                                       kept.neighbors.begin() + kept.offsets[i + 1], j) !=
-                                                 kept.neighbors.begin() + kept.offsets[i + 1];
-      if (j == i || keep || std::find(first, last, j) != last) {
+      if (j == i || strength.has_edge(i, j) || (any_kept && kept.has_edge(i, j))) {
         column.push_back(j);
         fine_source_.push_back(k);
       } else {
@@ -298,11 +293,9 @@ void SmoothedAggregation::mark_weak_blocks(Level& level, const Graph& strength) 
   level.weak.assign(a.column.size(), 0);
   bool any = false;
   for (int i = 0; i < a.rows; ++i) {
-    const auto first = strength.neighbors.begin() + strength.offsets[i];
-    const auto last = strength.neighbors.begin() + strength.offsets[i + 1];
     for (int k = a.start[i]; k < a.start[i + 1]; ++k) {
       const int j = a.column[k];
-      level.weak[k] = j != i && std::find(first, last, j) == last;
+      level.weak[k] = j != i && !strength.has_edge(i, j);
       any = any || level.weak[k];
     }
   }

@@ -3,6 +3,7 @@
 // then fit in 16-bit offsets from the diagonal).
 #pragma once
 
+#include <algorithm>
 #include <vector>
 
 namespace weft {
@@ -14,6 +15,10 @@ struct Graph {
   std::vector<int> neighbors;
   int size() const { return static_cast<int>(offsets.size()) - 1; }
   int degree(int i) const { return offsets[i + 1] - offsets[i]; }
+  bool has_edge(int i, int j) const {
+    const auto first = neighbors.begin() + offsets[i], last = neighbors.begin() + offsets[i + 1];
+    return std::find(first, last, j) != last;
+  }
 };
 
 // Builds a Graph from undirected edges (duplicates and self loops are dropped).
