@@ -74,8 +74,7 @@ class FrameTelemetry(BaseModel):
     max_edge_strain: float = Field(
         0.0, description="longest cloth edge over its rest length at frame end (1: rest; 1.5: stretched by half)")
     strain_limited_edges: int = Field(
-        0, description="edge corrections of the strain limit (before CCD and in its round after CCD), summed over passes "
-                       "and substeps")
+        0, description="edge corrections of the strain limit before CCD, summed over passes and substeps")
     subdivided_substeps: int = Field(
         0, description="substeps redone as two halves because their collision stage left pairs unresolved")
     # The preconditioner's share of the solve (issue 13); appended like the columns above.
@@ -88,13 +87,6 @@ class FrameTelemetry(BaseModel):
     contact_constraints_seconds: float = Field(
         0.0, description="of collision_proximity_seconds: finding the cloth/body contacts the solve constrains "
                          "(nearest body faces, cloth edges across sharp body edges), summed over substeps")
-    # The strain limit's round after CCD (docs/collisions.md, "The step", 2b); appended.
-    strain_rounds_after_ccd: int = Field(
-        0, description="substeps whose strain limit ran again once CCD had made them collision-free (edges CCD's "
-                       "impulses stretched), summed over substeps")
-    strain_rounds_taken_back: int = Field(
-        0, description="of strain_rounds_after_ccd: rounds taken back because CCD's passes did not find the step "
-                       "collision-free again within two passes")
 
 
 _DTYPES = {int: "i4", float: "f8"}

@@ -141,10 +141,6 @@ void bind_collision(py::module_& m) {
       .def_property_readonly("released_contacts", [](const FrameTelemetry& t) { return t.collision.released_contacts; })
       .def_property_readonly("strain_limited_edges",
                              [](const FrameTelemetry& t) { return t.collision.strain_limited_edges; })
-      .def_property_readonly("strain_rounds_after_ccd",
-                             [](const FrameTelemetry& t) { return t.collision.strain_rounds_after_ccd; })
-      .def_property_readonly("strain_rounds_taken_back",
-                             [](const FrameTelemetry& t) { return t.collision.strain_rounds_taken_back; })
       .def_property_readonly("ccd_candidates", [](const FrameTelemetry& t) { return t.collision.ccd_candidates; })
       .def_property_readonly("ccd_hits", [](const FrameTelemetry& t) { return t.collision.ccd_hits; })
       .def_property_readonly("impact_zones", [](const FrameTelemetry& t) { return t.collision.impact_zones; })

@@ -248,16 +248,6 @@ void CollisionSystem::mark_aside(const std::vector<int>& unresolved_vertices) {
       for (int k = 0; k < 3; ++k) aside_[faces(f, k)] = 1;
 }
 
-void CollisionSystem::note_ccd_moved() {
-  for (size_t p = 0; p < ccd_moved_.size(); ++p)
-    if (step_.changed[p] && ccd_moved_[p] == CcdMoved::kNo) ccd_moved_[p] = CcdMoved::kByBody;
-  for (int k : ccd_hits_) {
-    const FeaturePair& pair = step_.pairs[static_cast<size_t>(k)];
-    if (pair.body >= 0) continue;
-    for (int p : pair.point) ccd_moved_[static_cast<size_t>(p)] = CcdMoved::kByCloth;  // all cloth points
-  }
-}
-
 void CollisionSystem::redetect(std::vector<int>& hits) {
   detection_.collect_changed(step_, *filter_, frame_);
   ccd_.pass(step_, props_, false, &hits, true, frame_);
@@ -305,32 +295,20 @@ void CollisionSystem::respond(const Positions& x, Positions& v, double h, const 
   detection_.collect(step_, *filter_, frame_, false);
   step_.clear_vertices = nullptr;
   ProximityResponse().apply(step_, props_, frame_, threads_);
-  // Returns the edge corrections; ccd_moved: the round after CCD (strain_limit.h).
-  auto limit_strain = [&](const std::vector<CcdMoved>* ccd_moved) {
+  if (strain_limit_.enabled()) {
     const Timer timer;
     const bool any_stuck = constraints_.any_stuck();
     if (any_stuck) velocity_before_limit_ = v;
-    const int corrections = strain_limit_.apply(step_, props_, ccd_moved);
-    frame_.strain_limited_edges += corrections;
+    frame_.strain_limited_edges += strain_limit_.apply(step_, props_);
     // Friction holds no cloth beyond the strain limit: a sticking vertex the limit moved slides.
     if (any_stuck) constraints_.unstick_changed(velocity_before_limit_, v);
     frame_.response_seconds += timer.seconds();
-    return corrections;
-  };
-  if (strain_limit_.enabled()) limit_strain(nullptr);
+  }
   step_.pairs.clear();
   bool cloth_pairs_unresolved = false;
   std::vector<int> unresolved_vertices;  // cloth vertices of the pairs left unresolved
   if (settings_.ccd) {
     int& iteration = step_.ccd_iteration;
-    // The strain limit's round after CCD: once a pass finds the step collision-free, the edges
-    // the impulses stretched are limited again with what the impulses moved held (ccd_moved_),
-    // and the passes go on over what the round moved. If they do not find the step
-    // collision-free again within kPassesAfterStrainRound, the round is taken back: the step
-    // ends as the clean pass left it (never in impact zones on the round's account).
-    bool round_done = false;
-    int round_last_pass = 0;
-    ccd_moved_.assign(static_cast<size_t>(x.rows()), CcdMoved::kNo);
     for (iteration = 0; iteration < settings_.ccd_iterations; ++iteration) {
       // Later passes re-test only pairs with a vertex whose velocity changed: only those pairs
       // are looked for (collect_changed), around the changed faces.
@@ -339,26 +317,7 @@ void CollisionSystem::respond(const Positions& x, Positions& v, double h, const 
       else
         detection_.collect_changed(step_, *filter_, frame_);
       ++frame_.iterations;
-      ccd_hits_.clear();
-      const int hit_count = ccd_.pass(step_, props_, true, &ccd_hits_, iteration > 0, frame_);
-      note_ccd_moved();
-      if (hit_count == 0) {
-        if (round_done || !strain_limit_.enabled() || iteration + 1 >= settings_.ccd_iterations) break;
-        round_done = true;
-        clean_v_ = v;
-        clean_end_ = step_.x_end;
-        if (limit_strain(&ccd_moved_) == 0) break;
-        ++frame_.strain_rounds_after_ccd;
-        round_last_pass = std::min(settings_.ccd_iterations - 1, iteration + kPassesAfterStrainRound);
-        continue;
-      }
-      if (round_done) {
-        if (iteration < round_last_pass) continue;
-        v = clean_v_;
-        step_.x_end = clean_end_;
-        ++frame_.strain_rounds_taken_back;
-        break;
-      }
+      if (ccd_.pass(step_, props_, true, nullptr, iteration > 0, frame_) == 0) break;
       if (abandon_test_ && abandon_test_(step_.x_end)) {
         abandoned_ = true;
         step_.end();

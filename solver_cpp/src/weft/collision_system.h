@@ -107,9 +107,6 @@ class CollisionSystem {
   void body_positions(const std::vector<KinematicBody>& bodies, double alpha0, double alpha1);
   // Detection and CCD against the current velocities (the impact zones' re-detection).
   void redetect(std::vector<int>& hits);
-  // After a CCD pass: marks in ccd_moved_ the cloth vertices its impulses moved (step_.changed)
-  // and, over them, those of its cloth/cloth hits (ccd_hits_).
-  void note_ccd_moved();
   // aside_ after the step that just ended: the corners of the cloth faces in a pinch region or
   // with a vertex GIA coloured inside a body, and of every face around a face piercing a body, a
   // face tangled with other cloth or a cloth vertex of a pair left unresolved (given).
@@ -153,14 +150,6 @@ class CollisionSystem {
   bool aside_local_ = false;
   std::vector<char> aside_;
   Positions velocity_before_limit_;  // scratch: v before the strain limit, while a vertex sticks
-  // The strain limit's round after CCD (respond): per cloth vertex what moved it in the step's
-  // CCD passes so far, the hits of the last pass, and v and x_end at the clean pass before the
-  // round (what a round taken back returns to).
-  std::vector<CcdMoved> ccd_moved_;
-  std::vector<int> ccd_hits_;
-  Positions clean_v_, clean_end_;
-  // CCD passes a round after CCD may take to find the step collision-free again.
-  static constexpr int kPassesAfterStrainRound = 2;
   int zone_pass_limit_ = 0;
   std::function<bool(const Positions&)> abandon_test_;
   bool abandoned_ = false;

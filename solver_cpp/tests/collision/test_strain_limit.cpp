@@ -84,39 +84,5 @@ TEST(StrainLimit, AnUnforcedStretchRelaxesTowardsTheLimit) {
     EXPECT_LT((t.x.row(t.faces(0, c)) - t.x.row(t.faces(0, (c + 1) % 3))).norm(), 1.4 + 1e-3);
 }
 
-// The round after CCD (CcdMoved): a vertex a cloth/cloth impulse moved never moves; one a body
-// impulse moved stays while the edge's other end is free, and shares the correction with an end
-// a body impulse moved too.
-TEST(StrainLimit, TheRoundAfterCcdHoldsWhatTheImpulsesMoved) {
-  auto run = [](std::vector<CcdMoved> moved) {
-    Triangle t;
-    t.v.row(1) << 100.0, 0.0, 0.0;  // vertex 1 ends at x = 2: edges (0, 1) and (1, 2) stretched
-    t.step.begin(t.x, t.v, 0.01);
-    EXPECT_GT(t.limit(1.4).apply(t.step, t.props, &moved), 0);
-    for (int c = 0; c < 3; ++c) {
-      const int a = t.faces(0, c), b = t.faces(0, (c + 1) % 3);
-      EXPECT_LE((t.step.x_end.row(a) - t.step.x_end.row(b)).norm(), 1.4 + 1e-6);
-    }
-    EXPECT_LT((t.step.x_end - (t.x + 0.01 * t.v)).cwiseAbs().maxCoeff(), 1e-12);
-    return Positions(t.step.x_end);
-  };
-  const Vec3 flown(2.0, 0.0, 0.0);
-  // Stopped on a body, its free neighbours follow it.
-  const Positions body = run({CcdMoved::kNo, CcdMoved::kByBody, CcdMoved::kNo});
-  EXPECT_EQ(Vec3(body.row(1).transpose()), flown);
-  EXPECT_GT(body(0, 0), 0.0);
-  // Stopped by cloth: the same, whatever its neighbours.
-  const Positions cloth = run({CcdMoved::kByBody, CcdMoved::kByCloth, CcdMoved::kByBody});
-  EXPECT_EQ(Vec3(cloth.row(1).transpose()), flown);
-  // Two ends a body stopped share their edge's correction; the free third follows both.
-  const Positions shared = run({CcdMoved::kByBody, CcdMoved::kByBody, CcdMoved::kNo});
-  EXPECT_LT(shared(1, 0), 2.0 - 1e-3);
-  EXPECT_GT(shared(0, 0), 1e-3);
-  // A body-moved end beside a cloth-moved one gives way: the cloth-moved one stays.
-  const Positions beside = run({CcdMoved::kByCloth, CcdMoved::kByBody, CcdMoved::kNo});
-  EXPECT_EQ(Vec3(beside.row(0).transpose()), Vec3::Zero());
-  EXPECT_LT(beside(1, 0), 2.0 - 1e-3);
-}
-
 }  // namespace
 }  // namespace weft

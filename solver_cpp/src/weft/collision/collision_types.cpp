@@ -10,8 +10,6 @@ void CollisionTelemetry::add(const CollisionTelemetry& o) {
   contact_constraints += o.contact_constraints;
   released_contacts += o.released_contacts;
   strain_limited_edges += o.strain_limited_edges;
-  strain_rounds_after_ccd += o.strain_rounds_after_ccd;
-  strain_rounds_taken_back += o.strain_rounds_taken_back;
   proximity_seconds += o.proximity_seconds;
   ccd_seconds += o.ccd_seconds;
   response_seconds += o.response_seconds;

@@ -68,8 +68,6 @@ struct CollisionTelemetry {
   int contact_constraints = 0;  // cloth/body contacts constrained in the solve, summed over substeps
   int released_contacts = 0;    // of those, released after the solve (the cloth pulled away)
   int strain_limited_edges = 0;  // edge corrections of the strain limit, summed over passes and substeps
-  int strain_rounds_after_ccd = 0;   // substeps whose strain limit ran again after CCD (and corrected edges)
-  int strain_rounds_taken_back = 0;  // of those, rounds whose CCD passes did not come back clean in time
   int ccd_candidates = 0;  // feature pairs a CCD pass examined (incremental passes: those with a moved vertex)
   int ccd_hits = 0;
   int impact_zones = 0;

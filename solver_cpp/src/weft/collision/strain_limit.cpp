@@ -27,25 +27,14 @@ StrainLimit::StrainLimit(const Faces& faces, const std::vector<std::array<double
   }
 }
 
-namespace {
-// Whether the round after CCD keeps vertex p where CCD left it on an edge to q (CcdMoved).
-bool held(const std::vector<CcdMoved>* ccd_moved, int p, int q) {
-  if (ccd_moved == nullptr) return false;
-  const CcdMoved mp = (*ccd_moved)[p], mq = (*ccd_moved)[q];
-  return mp == CcdMoved::kByCloth || (mp == CcdMoved::kByBody && mq == CcdMoved::kNo);
-}
-}  // namespace
-
-int StrainLimit::apply(CollisionStep& step, const ContactProperties& props,
-                       const std::vector<CcdMoved>* ccd_moved) const {
+int StrainLimit::apply(CollisionStep& step, const ContactProperties& props) const {
   int corrections = 0;
   const Positions& x = *step.x;
   for (int pass = 0; pass < passes_; ++pass) {
     int pass_corrections = 0;
     for (size_t k = 0; k < edges_.size(); ++k) {
       const int i = edges_[k][0], j = edges_[k][1];
-      const double wi = held(ccd_moved, i, j) ? 0.0 : props.inverse_mass[i];
-      const double wj = held(ccd_moved, j, i) ? 0.0 : props.inverse_mass[j];
+      const double wi = props.inverse_mass[i], wj = props.inverse_mass[j];
       if (wi + wj == 0.0) continue;
       const Vec3 d = row3(step.x_end, j) - row3(step.x_end, i);
       const double length = d.norm();
