@@ -30,24 +30,34 @@ StrainLimit::StrainLimit(const Faces& faces, const std::vector<std::array<double
 int StrainLimit::apply(CollisionStep& step, const ContactProperties& props) const {
   int corrections = 0;
   const Positions& x = *step.x;
+  // Allowed length per edge: fixed for the step (it depends on the start positions only).
+  std::vector<double> allowed(edges_.size());
+  for (size_t k = 0; k < edges_.size(); ++k) {
+    const int i = edges_[k][0], j = edges_[k][1];
+    const double start_length = (row3(x, j) - row3(x, i)).norm();
+    allowed[k] = limit_[k] + kKeptExcess * std::max(start_length - limit_[k], 0.0);
+  }
+  // The last pass in which each vertex moved (-1: not yet). After pass 0 an edge whose ends
+  // did not move in this pass or the one before is as the previous pass left it: within limit.
+  std::vector<int> moved_in_pass(static_cast<size_t>(x.rows()), -1);
   for (int pass = 0; pass < passes_; ++pass) {
     int pass_corrections = 0;
     for (size_t k = 0; k < edges_.size(); ++k) {
       const int i = edges_[k][0], j = edges_[k][1];
+      if (pass > 0 && moved_in_pass[i] < pass - 1 && moved_in_pass[j] < pass - 1) continue;
       const double wi = props.inverse_mass[i], wj = props.inverse_mass[j];
       if (wi + wj == 0.0) continue;
       const Vec3 d = row3(step.x_end, j) - row3(step.x_end, i);
       const double length = d.norm();
-      const double start_length = (row3(x, j) - row3(x, i)).norm();
-      const double allowed = limit_[k] + kKeptExcess * std::max(start_length - limit_[k], 0.0);
-      if (!(length > allowed)) continue;
-      const Vec3 shift = (length - allowed) / length * d;
+      if (!(length > allowed[k])) continue;
+      const Vec3 shift = (length - (1.0 - kStrainLimitSlack) * allowed[k]) / length * d;
       step.x_end.row(i) += (wi / (wi + wj)) * shift.transpose();
       step.x_end.row(j) -= (wj / (wi + wj)) * shift.transpose();
       for (int p : {i, j}) {
         step.v->row(p) = (step.x_end.row(p) - x.row(p)) / step.h;
         step.moved(p);
         step.changed[p] = 1;
+        moved_in_pass[p] = pass;
       }
       ++pass_corrections;
     }
