@@ -307,9 +307,10 @@ TEST(Multigrid, AllPinnedAggregatesKeepTheHierarchyPositiveDefinite) {
   EXPECT_LT((dv - reference).norm(), 1e-4 * reference.norm());
 }
 
-TEST(Multigrid, LanczosEstimateOfTheSpectralRadiusIsCloseBelowIt) {
-  // The Chebyshev smoother needs an upper bound of rho(D^-1 A) within its 1.1 margin; ten
-  // power iterations were 18% low on this kind of sheet (and the V-cycle then indefinite).
+TEST(Multigrid, LanczosEstimateOfTheSpectralRadiusIsCloseAboveIt) {
+  // The Chebyshev smoother needs an upper bound of rho(D^-1 A); ten power iterations were 18%
+  // low on this kind of sheet (and the V-cycle then indefinite). The largest Ritz value of ten
+  // Lanczos steps is below the top too; with its residual added it is at or above it.
   SheetHierarchy sheet(48, 40, 20.0);
   const RowOrderSystem& s = sheet.system;
   for (int l = 0; l + 1 < s.multigrid.levels(); ++l) {
@@ -326,8 +327,8 @@ TEST(Multigrid, LanczosEstimateOfTheSpectralRadiusIsCloseBelowIt) {
       lambda = x.norm();
       x /= lambda;
     }
-    EXPECT_LE(s.multigrid.spectral_radius(l), 1.001 * lambda) << "level " << l;
-    EXPECT_GE(s.multigrid.spectral_radius(l), 0.95 * lambda) << "level " << l;
+    EXPECT_GE(s.multigrid.spectral_radius(l), 0.999 * lambda) << "level " << l;
+    EXPECT_LE(s.multigrid.spectral_radius(l), 1.1 * lambda) << "level " << l;
   }
 }
 

@@ -10,9 +10,10 @@
 //   tentative     T_iJ = B_i G_J^(-1/2) for i in aggregate J, G_J = sum B_i^T B_i (a symmetric
 //                 orthonormalisation, the QR of classic SA; directions with G_J = 0, e.g. an
 //                 aggregate of pinned vertices, are dropped: Q_J = projection onto range(G_J));
-//   prolongator   P = (I - omega D^-1 A) T, omega = 4 / (3 rho), rho ~ rho(D^-1 A) by a few
-//                 Lanczos steps (D: the 3x3 diagonal blocks); on the finest level A and D are
-//                 the filtered A^F and its lumped diagonal (MultigridOptions::filtered_smoothing);
+//   prolongator   P = (I - omega D^-1 A) T, omega = 4 / (3 rho), rho >~ rho(D^-1 A) by a few
+//                 Lanczos steps, the largest Ritz value plus its residual (D: the 3x3 diagonal
+//                 blocks); on the finest level A and D are the filtered A^F and its lumped
+//                 diagonal (MultigridOptions::filtered_smoothing);
 //   coarse        A_c = P^T A P + (I - Q): the same pre-filtered form one level down, so every
 //                 level is SPD; B_c,J = G_J^(1/2).
 // The finest level's A is not the system's matrix but its lumped form A^L (MultigridOptions::
