@@ -208,7 +208,8 @@ def test_a_fast_thin_limb_does_not_carry_the_sheet_it_sweeps_by_friction(tmp_pat
     scene's chaos as much as the rules': over CG tolerances 1e-3 to 1e-5 and two builds it
     ranged 1.48-4.85 for the 3 cm limb and 1.54-5.94 for the 2 cm one, and at 1e-4 the 2 cm limb
     still carries the sheet (docs/collisions.md, twenty-fifth session; Known limits). At the
-    default tolerance the bound below is the old rules' failure, not the halving's 1.75."""
+    default tolerance the bound below is the old rules' failure, not the halving's bound
+    (`solver.max_step_strain`)."""
     for radius in (0.015, 0.01):
         directory = tmp_path / f"limb_{radius}"
         scene = make_scene(thin_limb(directory, frames=11, friction=0.3, limb_radius=radius), directory)

@@ -8,6 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from api_schemas.shot import SolverSettings
 from scenes.contact import thin_limb
 from weft import _solver
 from weft.simulate import simulate
@@ -16,6 +17,7 @@ from weft.solver_setup import build_setup
 from tests.helpers import make_scene
 
 FRAMES = 7  # the limb reaches the sheet in frame 2 and drags it through frame 6
+BOUND = SolverSettings().max_step_strain  # the shipped default
 
 
 def run(tmp_path, max_step_strain: float) -> list[tuple[float, int]]:
@@ -29,12 +31,12 @@ def run(tmp_path, max_step_strain: float) -> list[tuple[float, int]]:
 
 
 def test_steps_that_tear_an_edge_are_halved_until_every_frame_is_within_the_bound(tmp_path):
-    on = run(tmp_path / "on", 1.75)
+    on = run(tmp_path / "on", BOUND)
     off = run(tmp_path / "off", 0.0)
     assert len(on) == len(off) == FRAMES - 1
     # Off: the responses leave edges beyond the bound at the end of some frame, and nothing halves
     # (no pair is left unresolved on this sheet).
-    assert max(strain for strain, _ in off) > 1.75, off
+    assert max(strain for strain, _ in off) > BOUND, off
     assert sum(halved for _, halved in off) == 0, off
     # On: the steps that would tear are redone as halves, and the worst frame is below the
     # rule-off run's. Not every frame ends within the bound: an edge stretched past the strain

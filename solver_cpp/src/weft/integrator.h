@@ -32,8 +32,9 @@ struct SolverSettings {
   // to more than this many times its rest length at its end, where no GIA recovery or pinch is
   // under way (0: never). The impulses act per vertex after the solve; on a limb moving metres
   // per second they stretched single edges to 3.7x in one step, where two half steps keep the
-  // cloth within the strain limit (docs/collisions.md). 1.25x the default strain limit.
-  double max_step_strain = 1.75;
+  // cloth within the strain limit (docs/collisions.md). 1.5: no edge beyond one and a half
+  // times its rest length at a step's end unless a pin or a body forces it there over steps.
+  double max_step_strain = 1.5;
 };
 
 // Everything needed to build a simulation, as flat arrays (cloth pieces concatenated).
