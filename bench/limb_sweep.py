@@ -24,6 +24,8 @@ import numpy as np
 from rich.console import Console
 from rich.table import Table
 
+from bench.solver_module import add_module_option, load_module_option
+
 # Keyword arguments of scenes.contact.thin_limb; {} is the bench scene itself.
 VARIANTS: list[dict[str, Any]] = [
     {},
@@ -59,7 +61,7 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--frames", type=int, default=12, help="frames per run, the first included (default 12)")
     parser.add_argument("--threads", type=int, default=1)
-    parser.add_argument("--module", help="path of a weft._solver extension to run instead of the installed one")
+    add_module_option(parser)
     parser.add_argument("--cg-tolerance", type=float,
                         help="solver.cg_tolerance of every variant (default: the shot's); the spread between "
                              "tolerances is how far a rule's figures move with the solver's own error")
@@ -71,12 +73,7 @@ def main(argv: list[str] | None = None) -> int:
         parser.error("--threads must be at least 1")
     if args.cg_tolerance is not None and not 0.0 < args.cg_tolerance < 1.0:
         parser.error("--cg-tolerance must be between 0 and 1 (exclusive)")
-    if args.module:
-        if not Path(args.module).is_file():
-            parser.error(f"--module: {args.module} is not a file")
-        from bench.solver_module import load_module
-
-        load_module(args.module)
+    load_module_option(parser, args.module)
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         for k, variant in enumerate(VARIANTS):

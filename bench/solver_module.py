@@ -4,7 +4,9 @@ the children of bench.module_ab)."""
 
 from __future__ import annotations
 
+import argparse
 import sys
+from pathlib import Path
 
 
 def load_module(path: str) -> None:
@@ -20,3 +22,18 @@ def load_module(path: str) -> None:
     spec.loader.exec_module(module)
     sys.modules["weft._solver"] = module
     weft._solver = module  # type: ignore[attr-defined]
+
+
+def load_module_option(parser: argparse.ArgumentParser, path: str | None) -> None:
+    """A bench's `--module PATH`: nothing when not given, a usage error naming the option when
+    `path` is not a file, else `load_module(path)`."""
+    if not path:
+        return
+    if not Path(path).is_file():
+        parser.error(f"--module: {path} is not a file")
+    load_module(path)
+
+
+def add_module_option(parser: argparse.ArgumentParser) -> None:
+    """A bench's `--module PATH` option (see `load_module_option`)."""
+    parser.add_argument("--module", help="path of a weft._solver extension to run instead of the installed one")

@@ -8,12 +8,13 @@ from pathlib import Path
 
 import pytest
 
-from bench import contact, limb_sweep
+from bench import contact, garment_spread, limb_sweep
 
 
 @pytest.mark.parametrize(("main", "argv"), [(limb_sweep.main, ["--frames", "2"]),
-                                            (contact.main, ["--scenes", "sleeve_swing"])],
-                         ids=["limb_sweep", "contact"])
+                                            (contact.main, ["--scenes", "sleeve_swing"]),
+                                            (garment_spread.main, ["--copies", "0"])],
+                         ids=["limb_sweep", "contact", "garment_spread"])
 def test_a_module_that_is_not_there_is_named(main: Callable[[list[str]], int], argv: list[str], tmp_path: Path,
                                              capsys: pytest.CaptureFixture[str]) -> None:
     missing = tmp_path / "missing.so"
