@@ -21,8 +21,12 @@ SWEEP, AFTER = 36, 6  # part_sweep_shot defaults
 
 
 def run_sweep(tmp_path, part_pinch: bool = True, threads: int = 2, substeps: int = 4,
-              local_aside: bool = True) -> list[dict]:
-    scene = make_scene(part_sweep_shot(tmp_path, substeps=substeps), tmp_path)
+              local_aside: bool = True, thickness: float | None = None) -> list[dict]:
+    shot = part_sweep_shot(tmp_path, substeps=substeps)
+    if thickness is not None:
+        for cloth in shot["cloth"]:
+            cloth["material"]["thickness"] = thickness
+    scene = make_scene(shot, tmp_path)
     switches = collision_switches(scene)
     assert switches["gia"] == -1 and len(set(switches["body_group"])) == 1  # one character, GIA auto
     setup = build_setup(scene, threads)
@@ -47,9 +51,12 @@ def trace(rows: list[dict]) -> list[tuple]:
              round(r["strain"], 2), round(r["lowest"], 4)) for r in rows]
 
 
-@pytest.mark.parametrize("substeps", [4, 16])
-def test_a_part_passing_over_squeezed_cloth_leaves_it_on_the_other_part(tmp_path, substeps):
-    rows = run_sweep(tmp_path, substeps=substeps)
+# The squeeze's largest strain is a draw of the solver's noise (a forced pinch: the strain
+# bound does not hold there), so the sweep also runs with the cloth thickness (default 2 mm)
+# scaled by 0.93 and 1.07, as `weft bench contact --perturb` does.
+@pytest.mark.parametrize(("substeps", "thickness"), [(4, None), (4, 0.00186), (4, 0.00214), (16, None)])
+def test_a_part_passing_over_squeezed_cloth_leaves_it_on_the_other_part(tmp_path, substeps, thickness):
+    rows = run_sweep(tmp_path, substeps=substeps, thickness=thickness)
     t = trace(rows)
     pinched = [r["frame"] for r in rows if r["parts"] > 0]
     # Engaged while the arm rolls over the sheet (it starts 0.2 m off the sheet's edge and ends
@@ -65,10 +72,13 @@ def test_a_part_passing_over_squeezed_cloth_leaves_it_on_the_other_part(tmp_path
     assert all(r["unresolved"] == 0 and r["substeps"] == substeps for r in rows), t
     assert all(r["zones"] == 0 for r in rows if r["parts"] == 0) and max(r["zones"] for r in rows) <= 2, t
     # Never into the torso (CCD keeps it out); edges within the strain target outside the pinch,
-    # and within 1.6 where the arm squeezes the sheet (a forced pinch: 1.56 at 4 substeps).
+    # and within 1.7 where the arm squeezes the sheet (a forced pinch; at 4 substeps over
+    # thicknesses scaled by 0.93-1.07, the build of docs/collisions.md's thirty-first session
+    # peaked at 1.42-1.63 there and at most 1.40 outside, the build before it at 1.42-2.72 and up
+    # to 2.72 outside).
     assert all(r["inside"][0] == 0 for r in rows), t
     assert max(r["strain"] for r in rows if r["parts"] == 0) < 1.5, t
-    assert max(r["strain"] for r in rows) < 1.6, t
+    assert max(r["strain"] for r in rows) < 1.7, t
     # Once the arm has passed, the cloth is free of both parts. (Whether the arm's friction
     # drags the squeezed sheet along, or the torso's holds it, is not decided by this scene:
     # both parts have the cloth's friction; at 4 substeps it stays on the block, at 16 it is
