@@ -410,12 +410,9 @@ def main(argv: list[str] | None = None) -> int:
         parser.error("--perturb must be 0 (off) or a positive number of copies")
     if args.frames is not None and args.frames < 2:
         parser.error("--frames must be at least 2 (the initial state and one simulated frame)")
-    if args.module:
-        if not Path(args.module).is_file():
-            parser.error(f"--module: {args.module} is not a file")
-        from bench.solver_module import load_module
+    from bench.solver_module import load_module_option
 
-        load_module(args.module)
+    load_module_option(parser, args.module)
     if args.peer == "blender":
         try:
             import importlib.util
