@@ -18,16 +18,18 @@ from tests.helpers import make_scene
 
 FRAMES = 7  # the limb reaches the sheet in frame 2 and drags it through frame 6
 BOUND = SolverSettings().max_step_strain  # the shipped default
+SUBSTEPS = 4  # the thin limb's substeps per frame
 
 
-def run(tmp_path, max_step_strain: float) -> list[tuple[float, int]]:
-    """(max edge strain, halved substeps) per simulated frame. The sheet slides on the limb
+def run(tmp_path, max_step_strain: float) -> list[tuple[float, int, int]]:
+    """(max edge strain, halved substeps, substeps taken) per simulated frame. The sheet slides on the limb
     (no friction): with friction it sticks to the limb, which then stretches it a little more at
     every step (forced, not torn by a step's responses: the rule leaves that alone)."""
     scene = make_scene(thin_limb(tmp_path, frames=FRAMES, friction=0.0), tmp_path)
     setup = build_setup(scene, 2)
     setup.solver.max_step_strain = max_step_strain
-    return [(t.max_edge_strain, t.subdivided_substeps) for _, _, t in simulate(scene, _solver.Simulation(setup))]
+    return [(t.max_edge_strain, t.subdivided_substeps, t.substeps)
+            for _, _, t in simulate(scene, _solver.Simulation(setup))]
 
 
 def test_steps_that_tear_an_edge_are_halved_until_every_frame_is_within_the_bound(tmp_path):
@@ -36,18 +38,25 @@ def test_steps_that_tear_an_edge_are_halved_until_every_frame_is_within_the_boun
     assert len(on) == len(off) == FRAMES - 1
     # Off: the responses leave edges beyond the bound at the end of some frame, and nothing halves
     # (no pair is left unresolved on this sheet).
-    assert max(strain for strain, _ in off) > BOUND, off
-    assert sum(halved for _, halved in off) == 0, off
+    assert max(strain for strain, _, _ in off) > BOUND, off
+    assert sum(halved for _, halved, _ in off) == 0, off
     # On: the steps that would tear are redone as halves, and the worst frame is below the
     # rule-off run's. Not every frame ends within the bound: an edge stretched past the strain
     # limit (1.4) over earlier steps may grow on (outside the rule), and the frame that does is
     # a draw of the solver's noise (with the CG tolerance alone changed, 1e-3 to 1e-5, this
     # scene's worst frame moved between 1.53 and 3.94 on two builds; docs/collisions.md,
     # twenty-fifth session).
-    assert sum(halved for _, halved in on) > 0, on
-    assert max(strain for strain, _ in on) < max(strain for strain, _ in off), (on, off)
+    assert sum(halved for _, halved, _ in on) > 0, on
+    assert max(strain for strain, _, _ in on) < max(strain for strain, _, _ in off), (on, off)
     # Until the limb reaches the cloth the two runs are the same steps.
     assert on[0] == off[0]
+    # A halved substep makes the next one start halved (SubstepLevel): each halving turns one
+    # piece into two, and a substep that starts halved is two pieces with no halving; the
+    # frame's 4 substeps start whole. Where the limb drags the sheet some substep starts halved
+    # (more pieces than the halvings explain), and off, every frame is its 4 whole substeps.
+    assert all(taken >= SUBSTEPS + halved for _, halved, taken in on), on
+    assert any(taken > SUBSTEPS + halved for _, halved, taken in on), on
+    assert all(taken == SUBSTEPS for _, _, taken in off), off
 
 
 def test_the_bound_must_be_off_or_above_one(tmp_path):

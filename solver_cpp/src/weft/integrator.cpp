@@ -221,7 +221,7 @@ Simulation::StepTimings Simulation::step(double time, double h, double alpha_end
   return t;
 }
 
-void Simulation::substep(double time, double h, double alpha0, double alpha1, int depth, FrameTelemetry& telemetry) {
+int Simulation::substep(double time, double h, double alpha0, double alpha1, int depth, FrameTelemetry& telemetry) {
   const bool can_halve = collisions_ && depth < settings_.max_substep_halvings;
   Positions x0, v0;
   VectorX dv0;
@@ -282,13 +282,14 @@ void Simulation::substep(double time, double h, double alpha0, double alpha1, in
     collisions_->set_contact_flags(contact_flags0, static_cast<int>(x_.rows()));
     ++telemetry.subdivided_substeps;
     const double mid = 0.5 * (alpha0 + alpha1);
-    substep(time, 0.5 * h, alpha0, mid, depth + 1, telemetry);
-    substep(time + 0.5 * h, 0.5 * h, mid, alpha1, depth + 1, telemetry);
-    return;
+    const int first = substep(time, 0.5 * h, alpha0, mid, depth + 1, telemetry);
+    const int second = substep(time + 0.5 * h, 0.5 * h, mid, alpha1, depth + 1, telemetry);
+    return std::max(first, second);
   }
   telemetry.final_residual = t.residual;
   telemetry.unconverged_substeps += t.converged ? 0 : 1;
   ++telemetry.substeps;
+  return depth;
 }
 
 FrameTelemetry Simulation::advance_frame(double frame_start_time, double frame_duration, int substeps) {
@@ -299,9 +300,25 @@ FrameTelemetry Simulation::advance_frame(double frame_start_time, double frame_d
   const double h = frame_duration / substeps;
   if (collisions_) collisions_->begin_frame();
   linear_->start_frame();
-  for (int s = 0; s < substeps; ++s)
-    substep(frame_start_time + s * h, h, static_cast<double>(s) / substeps, static_cast<double>(s + 1) / substeps, 0,
-            telemetry);
+  // Each substep is taken as 2^level.start() pieces (SubstepLevel): one that had to be halved
+  // makes the next start halved instead of trying, and abandoning, the full step again. Per
+  // frame: every frame starts with whole substeps, so a run resumed at any frame takes the
+  // same steps.
+  SubstepLevel level(settings_.max_substep_halvings);
+  for (int s = 0; s < substeps; ++s) {
+    const int start = level.start();
+    const int pieces = 1 << start;
+    const double piece_h = h / pieces;
+    int deepest = start;
+    for (int p = 0; p < pieces; ++p) {
+      const int k = s * pieces + p;  // piece k of the frame's substeps * pieces
+      const double alpha0 = static_cast<double>(k) / (substeps * pieces);
+      const double alpha1 = static_cast<double>(k + 1) / (substeps * pieces);
+      deepest = std::max(deepest, substep(frame_start_time + s * h + p * piece_h, piece_h, alpha0, alpha1, start,
+                                          telemetry));
+    }
+    level.finished(deepest);
+  }
   if (collisions_) {
     telemetry.collision = collisions_->end_frame(x_, bodies_);
     telemetry.collision_seconds = telemetry.collision.total_seconds();

@@ -13,6 +13,7 @@
 #include "weft/forces/forces.h"
 #include "weft/linear_system/linear_system.h"
 #include "weft/linear_system/linear_system_path.h"
+#include "weft/substep_level.h"
 
 namespace weft {
 
@@ -143,8 +144,9 @@ class Simulation {
   StepTimings step(double time, double h, double alpha_end);
   // One substep from frame fraction alpha0 to alpha1, halved while its collision stage leaves
   // pairs unresolved or overstretches an edge (SolverSettings::max_step_strain) and depth <
-  // max_substep_halvings; adds to the frame's telemetry.
-  void substep(double time, double h, double alpha0, double alpha1, int depth, FrameTelemetry& telemetry);
+  // max_substep_halvings; adds to the frame's telemetry. Returns the deepest halving a piece of
+  // it was taken at (depth when it was not halved).
+  int substep(double time, double h, double alpha0, double alpha1, int depth, FrameTelemetry& telemetry);
   void build_filter(double h, double alpha_end);
 
   SolverSettings settings_;

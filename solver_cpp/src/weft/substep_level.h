@@ -1,0 +1,33 @@
+// Where a frame's substeps start in adaptive substepping: how many halvings deep.
+//
+// A substep that leaves pairs unresolved or tears an edge is redone as two halves
+// (Simulation::substep). What made it fail - a limb sweeping through the cloth, a fold
+// collapsing - usually lasts beyond it, and the next full substep then fails the same way:
+// its abandoned attempt costs a solve and a collision stage for nothing. So a substep that
+// needed a halving makes the next one start one level deeper, and one that ran at its level
+// without a halving lets the next start one level higher again: the step size follows the
+// trouble within a frame, one level per substep. The deepest start keeps one halving in
+// reserve (a start at the deepest level would leave the fail-safe no halving to fall back on).
+#pragma once
+
+#include <algorithm>
+
+namespace weft {
+
+class SubstepLevel {
+ public:
+  explicit SubstepLevel(int max_halvings) : deepest_start_(std::max(0, max_halvings - 1)) {}
+  // Halvings the next substep starts at: it is taken as 2^start() pieces.
+  int start() const { return start_; }
+  // The substep just taken: `deepest` is the deepest halving one of its pieces needed
+  // (start() when none was halved).
+  void finished(int deepest) {
+    start_ = deepest > start_ ? std::min(start_ + 1, deepest_start_) : std::max(start_ - 1, 0);
+  }
+
+ private:
+  int deepest_start_;
+  int start_ = 0;
+};
+
+}  // namespace weft
