@@ -147,17 +147,20 @@ def test_the_state_keeps_the_contact_constraints_decisions(tmp_path) -> None:
     assert describe_cache(split)["status"] == "complete"
 
 
-@pytest.mark.parametrize("scene", ["drape", "box_pinch"])
+@pytest.mark.parametrize("scene", ["drape", "box_pinch", "thin_limb"])
 def test_a_shot_with_bodies_resumes_bitwise(tmp_path, scene: str) -> None:
     # The collision stage's analysis flags (GIA due, on which bodies, contacts set aside) are in
     # the state: a new simulation starts with the analysis due on every body, which a run resumed
     # from a clean frame would otherwise redo (the drape then moved 1.8 mm off the uninterrupted
     # run in its first resumed frame, the box pinch 1.1 mm; docs/cache-format.md). The box pinch
-    # resumes while its two boxes squeeze the sheet.
-    from scenes.contact import box_pinch, drape_sphere
+    # resumes while its two boxes squeeze the sheet; the thin limb while it drags the sheet, in
+    # frames whose substeps are halved and start halved (SubstepLevel: every frame starts whole).
+    from scenes.contact import box_pinch, drape_sphere, thin_limb
 
     if scene == "drape":
         doc, frames, cut = drape_sphere(tmp_path, n=16, frames=14, width=0.5, radius=0.2, drop=0.02), 14, 7
+    elif scene == "thin_limb":
+        doc, frames, cut = thin_limb(tmp_path, frames=7), 7, 4
     else:
         doc, frames, cut = box_pinch(tmp_path), 25, 10
     shot = tmp_path / "shot.json"
