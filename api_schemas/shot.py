@@ -225,7 +225,8 @@ class SolverSettings(StrictModel):
         2, ge=0, le=6,
         description=("Adaptive substepping: a substep whose collision stage leaves pairs unresolved (or "
                      "overstretches an edge, see max_step_strain) is redone as two halves, at most this many "
-                     "halvings deep (0: never)."),
+                     "halvings deep (0: never); the frame's next substep then starts halved, and one taken "
+                     "without a halving lets the next go one level up again."),
     )
     max_step_strain: float = Field(
         1.5, ge=0.0, le=100.0,
