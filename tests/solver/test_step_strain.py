@@ -22,9 +22,9 @@ SUBSTEPS = 4  # the thin limb's substeps per frame
 
 
 def run(tmp_path, max_step_strain: float) -> list[tuple[float, int, int]]:
-    """(max edge strain, halved substeps, substeps taken) per simulated frame. The sheet slides on the limb
-    (no friction): with friction it sticks to the limb, which then stretches it a little more at
-    every step (forced, not torn by a step's responses: the rule leaves that alone)."""
+    """(max edge strain, halved substeps, substeps taken) per simulated frame. The sheet slides on
+    the limb (no friction): with friction it sticks to the limb, which then stretches it a little
+    more at every step (forced, not torn by a step's responses: the rule leaves that alone)."""
     scene = make_scene(thin_limb(tmp_path, frames=FRAMES, friction=0.0), tmp_path)
     setup = build_setup(scene, 2)
     setup.solver.max_step_strain = max_step_strain
