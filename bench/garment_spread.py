@@ -43,14 +43,14 @@ def run_copy(factor: float, threads: int, directory: Path) -> dict[str, Any]:
 
     from bench.contact import run_weft
     from bench.contact_metrics import BodyTrack, ContactGeometry
+    from bench.contact_robustness import scale_thickness
     from scenes.garment import skirt_walk
     from weft.shot import parse_shot
     from weft.solver_setup import resolve_scene
 
     path = skirt_walk(directory)
     document = yaml.safe_load(path.read_text())
-    for cloth in document["cloth"]:
-        cloth["material"]["thickness"] *= factor
+    scale_thickness(document, factor)
     scene = resolve_scene(parse_shot(document), directory)
     frames = scene.shot.frame_range[1] - scene.shot.frame_range[0] + 1
     run = run_weft(scene, frames, threads)
