@@ -21,13 +21,16 @@ BOUND = SolverSettings().max_step_strain  # the shipped default
 SUBSTEPS = 4  # the thin limb's substeps per frame
 
 
-def run(tmp_path, max_step_strain: float) -> list[tuple[float, int, int]]:
+def run(tmp_path, max_step_strain: float, speed: float = 3.0,
+        max_substep_halvings: int | None = None) -> list[tuple[float, int, int]]:
     """(max edge strain, halved substeps, substeps taken) per simulated frame. The sheet slides on
     the limb (no friction): with friction it sticks to the limb, which then stretches it a little
     more at every step (forced, not torn by a step's responses: the rule leaves that alone)."""
-    scene = make_scene(thin_limb(tmp_path, frames=FRAMES, friction=0.0), tmp_path)
+    scene = make_scene(thin_limb(tmp_path, frames=FRAMES, friction=0.0, speed=speed), tmp_path)
     setup = build_setup(scene, 2)
     setup.solver.max_step_strain = max_step_strain
+    if max_substep_halvings is not None:
+        setup.solver.max_substep_halvings = max_substep_halvings
     return [(t.max_edge_strain, t.subdivided_substeps, t.substeps)
             for _, _, t in simulate(scene, _solver.Simulation(setup))]
 
@@ -50,13 +53,28 @@ def test_steps_that_tear_an_edge_are_halved_until_every_frame_is_within_the_boun
     assert max(strain for strain, _, _ in on) < max(strain for strain, _, _ in off), (on, off)
     # Until the limb reaches the cloth the two runs are the same steps.
     assert on[0] == off[0]
-    # A halved substep makes the next one start halved (SubstepLevel): each halving turns one
-    # piece into two, and a substep that starts halved is two pieces with no halving; the
-    # frame's 4 substeps start whole. Where the limb drags the sheet some substep starts halved
-    # (more pieces than the halvings explain), and off, every frame is its 4 whole substeps.
+    # Each halving turns one piece into two, and a substep that starts halved is two pieces with
+    # no halving (after a halved one, SubstepLevel; or in a frame whose limb moves faster than
+    # its thickness through the sheet, body_motion.h). Where the limb drags the sheet some
+    # substep starts halved (more pieces than the halvings explain); off, a frame is its 4
+    # substeps, whole or all started halved.
     assert all(taken >= SUBSTEPS + halved for _, halved, taken in on), on
     assert any(taken > SUBSTEPS + halved for _, halved, taken in on), on
-    assert all(taken == SUBSTEPS for _, _, taken in off), off
+    assert all(taken in (SUBSTEPS, 2 * SUBSTEPS) for _, _, taken in off), off
+
+
+def test_frames_whose_limb_outruns_its_thickness_start_halved(tmp_path):
+    """The limb (1.5 cm radius) at 3 m/s moves 3.1 cm a substep: 2 thicknesses. From the frame
+    its way passes the sheet every substep starts halved, before anything tears (the strain rule
+    off, so no halving after the fact hides it); at 0.5 m/s (0.5 cm a substep) none does, nor
+    with max_substep_halvings 1 (the one halving is the fail-safe's reserve)."""
+    fast = run(tmp_path / "fast", 0.0)
+    assert fast[0][2] == SUBSTEPS, fast  # frame 1: the limb is still 12 cm behind the sheet
+    assert all(taken == 2 * SUBSTEPS and halved == 0 for _, halved, taken in fast[1:]), fast
+    slow = run(tmp_path / "slow", 0.0, speed=0.5)
+    assert all(taken == SUBSTEPS and halved == 0 for _, halved, taken in slow), slow
+    reserve_only = run(tmp_path / "reserve", 0.0, max_substep_halvings=1)
+    assert all(taken == SUBSTEPS for _, _, taken in reserve_only), reserve_only
 
 
 def test_the_bound_must_be_off_or_above_one(tmp_path):

@@ -5,6 +5,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "weft/bodies/body_motion.h"
 #include "weft/collision/impact_zones.h"
 #include "weft/collision/proximity_response.h"
 #include "weft/common/timer.h"
@@ -128,6 +129,8 @@ CollisionSystem::CollisionSystem(const Faces& cloth_faces, const Positions& x, c
     if (pinch_->tracker().pairs().empty()) pinch_.reset();  // nothing to track
   }
   filter_ = std::make_unique<Filter>(*this);
+  body_closed_.resize(bodies.size());
+  for (size_t b = 0; b < bodies.size(); ++b) body_closed_[b] = closed_surface(bodies[b].faces());
   if (!face_rest_lengths.empty()) strain_limit_ = StrainLimit(cloth_faces, face_rest_lengths, settings_.max_strain);
   // A shot (or a resumed run) that starts in intersection starts with the impulses alone, as
   // after a frame whose exact count was not zero. The cloth/cloth analysis of the first step
@@ -385,6 +388,25 @@ int CollisionSystem::count_intersections(const Positions& x, const std::vector<K
                                        detection_.face_collide(), threads_);
   }
   return total;
+}
+
+int CollisionSystem::motion_halvings(const Positions& x, const Positions& v, const std::vector<KinematicBody>& bodies,
+                                     int substeps, double frame_duration, int max_halvings) const {
+  std::vector<BodyMotion> motions(bodies.size());
+  for (size_t b = 0; b < bodies.size(); ++b) {
+    if (!detection_.bodies()[b].collide || !body_closed_[b]) continue;
+    motions[b] = {&bodies[b].frame_start(), &bodies[b].frame_end(), &bodies[b].faces(),
+                  body_thickness(bodies[b].frame_start(), bodies[b].faces())};
+  }
+  const double widest_offset =
+      props_.body_offset.empty() ? 0.0 : *std::max_element(props_.body_offset.begin(), props_.body_offset.end());
+  const double band = kContactBand * (props_.default_thickness + widest_offset);
+  const Faces& faces = detection_.cloth_faces();
+  double longest = 0.0;
+  for (int f = 0; f < faces.rows(); ++f)
+    for (int k = 0; k < 3; ++k)
+      longest = std::max(longest, (Vec3(row3(x, faces(f, k))) - Vec3(row3(x, faces(f, (k + 1) % 3)))).squaredNorm());
+  return weft::motion_halvings(x, v, band, std::sqrt(longest), motions, substeps, frame_duration, max_halvings);
 }
 
 CollisionTelemetry CollisionSystem::end_frame(const Positions& x, const std::vector<KinematicBody>& bodies) {

@@ -94,6 +94,12 @@ class CollisionSystem {
   void set_analysis_flags(const std::vector<std::uint8_t>& flags);
   void check_analysis_flags(const std::vector<std::uint8_t>& flags) const;
   CollisionTelemetry end_frame(const Positions& x, const std::vector<KinematicBody>& bodies);
+  // At a frame's start (the bodies' keyframes set): the halvings, at most max_halvings, after
+  // which no collidable closed body moves relative to the cloth within its reach by more than
+  // its thickness in one piece of a substep (bodies/body_motion.h). From the frame's state
+  // only (x, v, keyframes): a resumed run decides the same.
+  int motion_halvings(const Positions& x, const Positions& v, const std::vector<KinematicBody>& bodies, int substeps,
+                      double frame_duration, int max_halvings) const;
   const CollisionSettings& settings() const { return settings_; }
   bool self_collision() const { return detection_.any_self(); }
   std::pair<double, double> cloth_tree_quality(const Positions& x) const { return detection_.cloth_tree_quality(x); }
@@ -137,6 +143,7 @@ class CollisionSystem {
   // and were resolved, so the cloth cannot be in it; it answers as analysed with nothing found.
   bool gia_all_bodies_ = true;
   std::vector<char> gia_watch_, gia_only_;
+  std::vector<char> body_closed_;  // per body: a closed surface (has a thickness for motion_halvings)
   std::unique_ptr<GiaBodyDriver> gia_bodies_;  // with GIA on
   std::unique_ptr<PinchDriver> pinch_;         // with GIA on and two or more collidable bodies
   ClothUntangling untangle_;                   // cloth/cloth GIA (with GIA on and self-collision)

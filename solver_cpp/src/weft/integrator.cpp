@@ -304,7 +304,14 @@ FrameTelemetry Simulation::advance_frame(double frame_start_time, double frame_d
   // makes the next start halved instead of trying, and abandoning, the full step again. Per
   // frame: every frame starts with whole substeps, so a run resumed at any frame takes the
   // same steps.
-  SubstepLevel level(settings_.max_substep_halvings);
+  // A frame whose bodies move faster than their thickness through the cloth they reach in one
+  // substep starts its substeps halved as far as that takes (body_motion.h), keeping the
+  // reserve halving.
+  const int motion = collisions_ && settings_.max_substep_halvings > 1
+                         ? collisions_->motion_halvings(x_, v_, bodies_, substeps, frame_duration,
+                                                        settings_.max_substep_halvings - 1)
+                         : 0;
+  SubstepLevel level(settings_.max_substep_halvings, motion);
   for (int s = 0; s < substeps; ++s) {
     const int start = level.start();
     const int pieces = 1 << start;

@@ -16,18 +16,22 @@ namespace weft {
 
 class SubstepLevel {
  public:
-  explicit SubstepLevel(int max_halvings) : deepest_start_(std::max(0, max_halvings - 1)) {}
+  // `floor`: the level no substep of the frame starts above (whole is 0), known before the frame
+  // from how fast its bodies move (CollisionSystem::motion_halvings); kept within the deepest start.
+  explicit SubstepLevel(int max_halvings, int floor = 0)
+      : deepest_start_(std::max(0, max_halvings - 1)), floor_(std::clamp(floor, 0, deepest_start_)), start_(floor_) {}
   // Halvings the next substep starts at: it is taken as 2^start() pieces.
   int start() const { return start_; }
   // The substep just taken: `deepest` is the deepest halving one of its pieces needed
   // (start() when none was halved).
   void finished(int deepest) {
-    start_ = deepest > start_ ? std::min(start_ + 1, deepest_start_) : std::max(start_ - 1, 0);
+    start_ = deepest > start_ ? std::min(start_ + 1, deepest_start_) : std::max(start_ - 1, floor_);
   }
 
  private:
   int deepest_start_;
-  int start_ = 0;
+  int floor_;
+  int start_;
 };
 
 }  // namespace weft

@@ -40,5 +40,20 @@ TEST(SubstepLevel, WithoutHalvingsOrWithOneEverySubstepStartsWhole) {
   }
 }
 
+TEST(SubstepLevel, AFloorFromTheBodiesMotionHoldsForTheFrame) {
+  SubstepLevel level(3, 1);  // the frame's bodies ask for one halving
+  EXPECT_EQ(level.start(), 1);
+  level.finished(1);  // ran at its level: not above the floor
+  EXPECT_EQ(level.start(), 1);
+  level.finished(3);
+  EXPECT_EQ(level.start(), 2);
+  level.finished(2);
+  EXPECT_EQ(level.start(), 1);
+  // The floor keeps the reserve halving too, and without halvings it is whole.
+  EXPECT_EQ(SubstepLevel(2, 5).start(), 1);
+  EXPECT_EQ(SubstepLevel(1, 1).start(), 0);
+  EXPECT_EQ(SubstepLevel(0, 1).start(), 0);
+}
+
 }  // namespace
 }  // namespace weft

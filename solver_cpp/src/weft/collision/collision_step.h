@@ -19,6 +19,10 @@ constexpr double kDefaultFriction = 0.3;
 // CCD reports pairs that come closer than this fraction of the thickness (its broad phase
 // looks no farther).
 constexpr double kCcdSeparationFraction = 0.05;
+// Contacts in the solve are looked for within this many thicknesses (contact_constraints.h):
+// beyond one thickness the constraint only caps the approach speed, so a vertex arriving fast
+// ends the step at the thickness instead of being caught by CCD.
+constexpr double kContactBand = 2.0;
 
 struct ContactProperties {
   std::vector<double> inverse_mass;         // per cloth vertex, 0 for pinned vertices

@@ -15,10 +15,6 @@
 namespace weft {
 
 namespace {
-// Contacts are looked for within this many thicknesses: beyond one thickness the constraint only
-// caps the approach speed, so a vertex arriving fast ends the step at the thickness instead of
-// being caught by CCD.
-constexpr double kContactBand = 2.0;
 // Cloth faces per parallel work item of the searches.
 constexpr std::int64_t kChunk = 256;
 constexpr double kInfinity = std::numeric_limits<double>::infinity();

@@ -6,30 +6,12 @@
 #include <limits>
 #include <utility>
 
+#include "weft/bodies/body_motion.h"
 #include "weft/geometry/closest_points.h"
 
 namespace weft {
 
 namespace {
-
-// Every edge shared by exactly two faces.
-bool closed(const Faces& faces) {
-  std::vector<std::pair<int, int>> edges;
-  edges.reserve(3 * static_cast<size_t>(faces.rows()));
-  for (int f = 0; f < faces.rows(); ++f)
-    for (int k = 0; k < 3; ++k) {
-      const int a = faces(f, k), b = faces(f, (k + 1) % 3);
-      edges.emplace_back(std::min(a, b), std::max(a, b));
-    }
-  std::sort(edges.begin(), edges.end());
-  for (size_t i = 0; i < edges.size();) {
-    size_t j = i;
-    while (j < edges.size() && edges[j] == edges[i]) ++j;
-    if (j - i != 2) return false;
-    i = j;
-  }
-  return !edges.empty();
-}
 
 double signed_volume(const Positions& x, const Faces& faces) {
   double six = 0.0;
@@ -55,7 +37,7 @@ bool facing(const Vec3& p, const Vec3& q, const Vec3& np, const Vec3& nq, double
 
 void PartSurface::fit(const Positions& x, const Faces& faces, double half_gap) {
   if (orientation_ == 0) {
-    const double v = closed(faces) ? signed_volume(x, faces) : 0.0;
+    const double v = closed_surface(faces) ? signed_volume(x, faces) : 0.0;
     orientation_ = v < 0.0 ? -1 : 1;
     volume_ = std::abs(v);
   }
