@@ -76,7 +76,8 @@ class FrameTelemetry(BaseModel):
     strain_limited_edges: int = Field(
         0, description="edge corrections of the strain limit before CCD, summed over passes and substeps")
     subdivided_substeps: int = Field(
-        0, description="substeps redone as two halves because their collision stage left pairs unresolved")
+        0, description="substeps redone as two halves because their collision stage left pairs unresolved or "
+                       "their responses stretched an edge past solver.max_step_strain")
     # The preconditioner's share of the solve (issue 13); appended like the columns above.
     setup_seconds: float = Field(
         0.0, description="of solve_seconds: the preconditioner's setup (multigrid hierarchy values), summed over substeps")
@@ -87,6 +88,10 @@ class FrameTelemetry(BaseModel):
     contact_constraints_seconds: float = Field(
         0.0, description="of collision_proximity_seconds: finding the cloth/body contacts the solve constrains "
                          "(nearest body faces, cloth edges across sharp body edges), summed over substeps")
+    # Adaptive substepping decided before the frame (issue 12); appended.
+    motion_halvings: int = Field(
+        0, description="halvings every substep of the frame started at because a body moves faster than its "
+                       "thickness through the cloth it meets within one substep (0: whole substeps)")
 
 
 _DTYPES = {int: "i4", float: "f8"}

@@ -90,6 +90,7 @@ PYBIND11_MODULE(_solver, m) {
       .def_readonly("potential_energy", &FrameTelemetry::potential_energy)
       .def_readonly("max_edge_strain", &FrameTelemetry::max_edge_strain)
       .def_readonly("subdivided_substeps", &FrameTelemetry::subdivided_substeps)
+      .def_readonly("motion_halvings", &FrameTelemetry::motion_halvings)
       .def_readonly("setup_seconds", &FrameTelemetry::setup_seconds);
 
   py::class_<Energies>(m, "Energies")

@@ -21,18 +21,21 @@ BOUND = SolverSettings().max_step_strain  # the shipped default
 SUBSTEPS = 4  # the thin limb's substeps per frame
 
 
-def run(tmp_path, max_step_strain: float, speed: float = 3.0,
-        max_substep_halvings: int | None = None) -> list[tuple[float, int, int]]:
-    """(max edge strain, halved substeps, substeps taken) per simulated frame. The sheet slides on
-    the limb (no friction): with friction it sticks to the limb, which then stretches it a little
-    more at every step (forced, not torn by a step's responses: the rule leaves that alone)."""
+def frames(tmp_path, max_step_strain: float, speed: float = 3.0, max_substep_halvings: int | None = None) -> list:
+    """The solver's telemetry per simulated frame. The sheet slides on the limb (no friction):
+    with friction it sticks to the limb, which then stretches it a little more at every step
+    (forced, not torn by a step's responses: the rule leaves that alone)."""
     scene = make_scene(thin_limb(tmp_path, frames=FRAMES, friction=0.0, speed=speed), tmp_path)
     setup = build_setup(scene, 2)
     setup.solver.max_step_strain = max_step_strain
     if max_substep_halvings is not None:
         setup.solver.max_substep_halvings = max_substep_halvings
-    return [(t.max_edge_strain, t.subdivided_substeps, t.substeps)
-            for _, _, t in simulate(scene, _solver.Simulation(setup))]
+    return [t for _, _, t in simulate(scene, _solver.Simulation(setup))]
+
+
+def run(tmp_path, max_step_strain: float, **kwargs) -> list[tuple[float, int, int]]:
+    """(max edge strain, halved substeps, substeps taken) per simulated frame (`frames`)."""
+    return [(t.max_edge_strain, t.subdivided_substeps, t.substeps) for t in frames(tmp_path, max_step_strain, **kwargs)]
 
 
 def test_steps_that_tear_an_edge_are_halved_until_every_frame_is_within_the_bound(tmp_path):
@@ -68,9 +71,11 @@ def test_frames_whose_limb_outruns_its_thickness_start_halved(tmp_path):
     its way passes the sheet every substep starts halved, before anything tears (the strain rule
     off, so no halving after the fact hides it); at 0.5 m/s (0.5 cm a substep) none does, nor
     with max_substep_halvings 1 (the one halving is the fail-safe's reserve)."""
-    fast = run(tmp_path / "fast", 0.0)
-    assert fast[0][2] == SUBSTEPS, fast  # frame 1: the limb is still 12 cm behind the sheet
-    assert all(taken == 2 * SUBSTEPS and halved == 0 for _, halved, taken in fast[1:]), fast
+    fast = frames(tmp_path / "fast", 0.0)
+    assert fast[0].substeps == SUBSTEPS  # frame 1: the limb is still 12 cm behind the sheet
+    assert all(t.substeps == 2 * SUBSTEPS and t.subdivided_substeps == 0 for t in fast[1:])
+    # The telemetry says why: the frames' motion halvings.
+    assert [t.motion_halvings for t in fast] == [0] + [1] * (FRAMES - 2)
     slow = run(tmp_path / "slow", 0.0, speed=0.5)
     assert all(taken == SUBSTEPS and halved == 0 for _, halved, taken in slow), slow
     reserve_only = run(tmp_path / "reserve", 0.0, max_substep_halvings=1)

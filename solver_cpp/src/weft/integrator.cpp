@@ -312,6 +312,7 @@ FrameTelemetry Simulation::advance_frame(double frame_start_time, double frame_d
                                                         settings_.max_substep_halvings - 1)
                          : 0;
   SubstepLevel level(settings_.max_substep_halvings, motion);
+  telemetry.motion_halvings = level.start();
   for (int s = 0; s < substeps; ++s) {
     const int start = level.start();
     const int pieces = 1 << start;

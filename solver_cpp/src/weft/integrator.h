@@ -68,6 +68,7 @@ struct FrameTelemetry {
   double final_residual = 0.0;  // relative residual of the last substep's solve
   int substeps = 0;               // implicit steps taken (more than asked when halved)
   int subdivided_substeps = 0;    // steps redone as two halves (adaptive substepping)
+  int motion_halvings = 0;        // halvings every substep started at for the bodies' motion (body_motion.h)
   int unconverged_substeps = 0;
   double kinetic_energy = 0.0;
   double potential_energy = 0.0;  // gravity + elastic
