@@ -154,7 +154,8 @@ def test_a_shot_with_bodies_resumes_bitwise(tmp_path, scene: str) -> None:
     # from a clean frame would otherwise redo (the drape then moved 1.8 mm off the uninterrupted
     # run in its first resumed frame, the box pinch 1.1 mm; docs/cache-format.md). The box pinch
     # resumes while its two boxes squeeze the sheet; the thin limb while it drags the sheet, in
-    # frames whose substeps are halved and start halved (SubstepLevel: every frame starts whole).
+    # frames whose substeps are halved and start halved (SubstepLevel; a frame starts halved
+    # only for its bodies' motion, decided from the frame's state: body_motion.h).
     from scenes.contact import box_pinch, drape_sphere, thin_limb
 
     if scene == "drape":
@@ -179,6 +180,12 @@ def test_a_shot_with_bodies_resumes_bitwise(tmp_path, scene: str) -> None:
         assert np.array_equal(a["frames/positions"][()], b["frames/positions"][()])
         assert np.array_equal(a["state/velocities"][()], b["state/velocities"][()])
         assert np.array_equal(a["state/collision_flags"][()], b["state/collision_flags"][()])
+    # `weft info`'s substeps: the same steps in both; only the thin limb (3 cm thick, 3 m/s) has
+    # frames started halved for its motion.
+    info_whole, info_split = describe_cache(whole), describe_cache(split)
+    for key in ("substeps", "halved_substeps", "frames_started_halved"):
+        assert info_whole[key] == info_split[key], key
+    assert (info_whole["frames_started_halved"] > 0) == (scene == "thin_limb"), info_whole
 
 
 def test_set_state_checks_the_collision_flags(tmp_path) -> None:

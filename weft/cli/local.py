@@ -132,6 +132,16 @@ def run(
     _print_summary(output, summary.wall_seconds)
 
 
+def _substeps_line(info: dict) -> str:
+    """Steps taken, with what adaptive substepping did where the cache records it."""
+    parts = [f"{info['substeps']} taken"]
+    if "halved_substeps" in info:
+        parts.append(f"{info['halved_substeps']} halved after a failed attempt")
+    if "frames_started_halved" in info:
+        parts.append(f"{info['frames_started_halved']} frames started halved for fast bodies")
+    return ", ".join(parts)
+
+
 def _print_summary(cache: Path, wall_seconds: float) -> None:
     from weft.cache import describe_cache
 
@@ -150,6 +160,7 @@ def _print_summary(cache: Path, wall_seconds: float) -> None:
         )
         table.add_row("CG iterations/frame", f"{info['cg_iterations_per_frame']:.1f}")
         table.add_row("unconverged substeps", str(info["unconverged_substeps"]))
+        table.add_row("substeps", _substeps_line(info))
     table.add_row("wall time", f"{wall_seconds:.2f} s")
     out.print(table)
 
