@@ -42,13 +42,14 @@ int motion_halvings(const Positions& cloth_x, const Positions& cloth_v, double b
   if (max_halvings <= 0 || substeps < 1 || cloth_x.rows() == 0 || !(frame_duration > 0.0)) return 0;
   const int cloth_count = static_cast<int>(cloth_x.rows());
   const double h = frame_duration / substeps;
-  // Cloth that may come near a body this frame: within the band plus how far the fastest cloth
-  // vertex travels over the frame of the body's swept box.
-  double fastest = 0.0;
-  for (int i = 0; i < cloth_count; ++i) fastest = std::max(fastest, Vec3(row3(cloth_v, i)).norm());
-  const double reach = band + fastest * frame_duration;
+  // Each cloth vertex's way over the frame (at its velocity), grown by the band and half a
+  // cloth edge: a body vertex whose own way, grown by half a body edge, overlaps none of these
+  // boxes passes near no cloth vertex. Built on the first body that needs it.
+  std::vector<Aabb> cloth_ways;
+  AabbTree cloth_tree;
+  double fastest = 0.0;  // the most a cloth vertex moves per substep
+  for (int i = 0; i < cloth_count; ++i) fastest = std::max(fastest, h * Vec3(row3(cloth_v, i)).norm());
   int halvings = 0;
-  std::vector<int> near;
   std::vector<std::pair<double, int>> fast;  // (bound on the relative motion per substep, body vertex)
   for (const BodyMotion& body : bodies) {
     if (!(body.thickness > 0.0) || body.frame_start == nullptr || body.frame_end == nullptr || body.faces == nullptr)
@@ -56,55 +57,58 @@ int motion_halvings(const Positions& cloth_x, const Positions& cloth_v, double b
     const Positions& start = *body.frame_start;
     const Positions& end = *body.frame_end;
     const int count = static_cast<int>(start.rows());
-    Aabb swept;
-    for (int k = 0; k < count; ++k) {
-      swept.expand(row3(start, k));
-      swept.expand(row3(end, k));
-    }
-    swept.inflate(reach);
-    near.clear();
-    double cloth_step = 0.0;  // the most a cloth vertex near the body moves per substep
-    for (int i = 0; i < cloth_count; ++i)
-      if (swept.contains(row3(cloth_x, i))) {
-        near.push_back(i);
-        cloth_step = std::max(cloth_step, h * Vec3(row3(cloth_v, i)).norm());
-      }
-    if (near.empty()) continue;
-    // A body vertex and a cloth vertex move relative to each other by `relative` per substep;
-    // the pair counts when, moving linearly over the frame (the body vertex between its
-    // keyframes, the cloth vertex at its velocity), they pass within the band and half a cloth
-    // edge and half a body edge of each other. The fastest such pair decides the body's level. Body vertices in
-    // order of a bound on their pairs' relative motion, so the search stops once no pair can
-    // beat what is found.
-    double found = body.thickness * static_cast<double>(1 << halvings);  // what the level allows
+    // Body vertices that could move, relative to some cloth vertex, by more than the level
+    // reached so far allows, in order of that bound: the search stops once no pair can beat
+    // what is found.
+    double found = body.thickness * static_cast<double>(1 << halvings);
     fast.clear();
     for (int k = 0; k < count; ++k) {
-      const double bound = (Vec3(row3(end, k)) - Vec3(row3(start, k))).norm() / substeps + cloth_step;
+      const double bound = (Vec3(row3(end, k)) - Vec3(row3(start, k))).norm() / substeps + fastest;
       if (bound > found) fast.emplace_back(bound, k);
     }
+    if (fast.empty()) continue;
     std::sort(fast.begin(), fast.end(),
               [](const auto& a, const auto& b) { return a.first > b.first || (a.first == b.first && a.second < b.second); });
-    // A body vertex passes between cloth vertices, a body face between body vertices.
+    if (cloth_tree.empty()) {
+      cloth_ways.resize(cloth_count);
+      for (int i = 0; i < cloth_count; ++i) {
+        Aabb& way = cloth_ways[i];
+        way.expand(Vec3(row3(cloth_x, i)));
+        way.expand(Vec3(Vec3(row3(cloth_x, i)) + frame_duration * Vec3(row3(cloth_v, i))));
+        way.inflate(band + 0.5 * cloth_edge);
+      }
+      cloth_tree.build(cloth_ways);
+    }
+    // A body vertex stands for the faces around it: their points lie within half a body edge of a corner.
     double body_edge = 0.0;
     for (int f = 0; f < body.faces->rows(); ++f)
       for (int c = 0; c < 3; ++c)
         body_edge = std::max(body_edge, (Vec3(row3(start, (*body.faces)(f, c))) -
                                          Vec3(row3(start, (*body.faces)(f, (c + 1) % 3)))).squaredNorm());
-    const double within = band + 0.5 * cloth_edge + 0.5 * std::sqrt(body_edge);
+    body_edge = std::sqrt(body_edge);
+    const double within = band + 0.5 * cloth_edge + 0.5 * body_edge;
+    // A body vertex and a cloth vertex move relative to each other by `relative` per substep;
+    // the pair counts when, moving linearly over the frame (the body vertex between its
+    // keyframes, the cloth vertex at its velocity), they pass within the band, half a cloth edge
+    // and half a body edge of each other. The fastest such pair decides the body's level.
     for (const auto& [bound, k] : fast) {
       if (bound <= found) break;
       const Vec3 p = row3(start, k);
       const Vec3 body_step = (Vec3(row3(end, k)) - p) / substeps;
-      for (int i : near) {
+      Aabb way;
+      way.expand(p);
+      way.expand(Vec3(row3(end, k)));
+      way.inflate(0.5 * body_edge);
+      cloth_tree.query(way, [&](int i) {
         const Vec3 step = body_step - h * Vec3(row3(cloth_v, i));  // the body vertex's, seen from the cloth vertex
         const double relative = step.norm();
-        if (relative <= found) continue;
+        if (relative <= found) return;
         // Nearest approach over the frame of the body vertex's relative path to the cloth vertex.
         const Vec3 gap = p - Vec3(row3(cloth_x, i));
         const Vec3 travel = substeps * step;
         const double t = std::clamp(-gap.dot(travel) / travel.squaredNorm(), 0.0, 1.0);
         if ((gap + t * travel).norm() <= within) found = relative;
-      }
+      });
     }
     const double pieces = found / body.thickness;  // pieces a substep needs
     while (halvings < max_halvings && pieces > static_cast<double>(1 << halvings)) ++halvings;
