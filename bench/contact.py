@@ -66,6 +66,7 @@ DEFAULT_FRAMES = {
     "walking_dress": 120,
     "layered_dress": 60,
     "loose_skirt": 80,
+    "trousers": 96,
 }
 
 

@@ -357,6 +357,56 @@ def loose_skirt(directory: Path, frames: int = 24, **kwargs: Any) -> dict[str, A
     return doc
 
 
+def leg_girth(y: np.ndarray, upper: float = 0.07, lower: float = 0.05) -> np.ndarray:
+    """Radius of the union of a leg's parts (`character_parts`: upper leg capsule down to the
+    knee, its cap below it, the lower leg down to the ankle) at heights y, about the leg's axis."""
+    knee, ankle = JOINTS["knee_l"][1], 0.10
+    thigh = np.where(y >= knee, upper, np.sqrt(np.maximum(upper ** 2 - (knee - y) ** 2, 0.0)))
+    shin = np.where((y <= knee) & (y >= ankle), lower, 0.0)
+    return np.maximum(thigh, shin)
+
+
+def trousers(directory: Path, frames: int = 24, around: int = 32, along: int = 48, top: float = 0.70,
+             bottom: float = 0.20, offset: float = 0.006, shrink: float = 0.95, walk: float = 1.2,
+             knee: float = 60.0, thickness: float = 0.003, substeps: int = 4) -> dict[str, Any]:
+    """Trouser legs on the walking character: an open tube around each leg from y = `top` (below
+    the hips) down to `bottom` (the shin), `offset` outside the leg's parts, rest girth `shrink`
+    times the starting one, on legs whose knees bend up to `knee` degrees as they swing (a
+    walking knee bends about 60 in swing): cloth in the knee pit, between two parts that close
+    on it, and around lower legs that swing fast, the everyday garment of a character of parts."""
+    parts = character_parts()
+    angles = joint_angles(frames)
+    for side in "lr":
+        angles[f"knee_{side}"] = angles[f"knee_{side}"] * knee / 30.0
+    animations = [part_animation(p, angles) for p in parts]
+    forward = walk_offsets(frames, walk)
+    for animation in animations:
+        animation[:, :, 2] += forward[:, None]
+    vertices, faces, rest = [], [], []
+    for side in ("l", "r"):
+        axis = JOINTS[f"hip_{side}"][0]
+        unit_v, unit_f = sleeve_mesh(1.0, 1.0, around=around, along=along)
+        ys = top - unit_v[:, 0] * (top - bottom)
+        radius = leg_girth(ys) + offset
+        leg = np.stack([axis + radius * unit_v[:, 1], ys, radius * unit_v[:, 2]], axis=1)
+        faces.append(unit_f + sum(len(v) for v in vertices))
+        vertices.append(leg)
+        rest.append(leg * [shrink, 1.0, shrink] + [axis * (1.0 - shrink), 0.0, 0.0])
+    directory.mkdir(parents=True, exist_ok=True)
+    np.savez(directory / "trousers_rest.npz", positions=np.concatenate(rest))
+    doc = sheet_shot("trousers", 2, 2, 1.0, 1.0, frames=frames, substeps=substeps, air_drag=0.2,
+                     material={"thickness": thickness, "friction": 0.4, "damping": 0.01})
+    doc["cloth"][0].update({"name": "trousers", "mesh": inline_mesh(np.concatenate(vertices), np.concatenate(faces)),
+                            "rest": {"kind": "positions", "positions": {"path": "trousers_rest.npz"}}})
+    doc["bodies"] = []
+    for part, animation in zip(parts, animations):
+        np.savez(directory / f"{part.name}.npz", positions=animation)
+        doc["bodies"].append({"name": part.name, "mesh": inline_mesh(animation[0], part.faces),
+                              "animation": {"path": f"{part.name}.npz"}})
+    doc["features"] = {"self_collision": True}
+    return doc
+
+
 SCENES: dict[str, Callable[..., dict[str, Any]]] = {
     "drape_sphere": drape_sphere,
     "drape_sphere_16k": drape_sphere_16k,
@@ -373,4 +423,5 @@ SCENES: dict[str, Callable[..., dict[str, Any]]] = {
     "walking_dress": walking_dress,
     "layered_dress": layered_dress,
     "loose_skirt": loose_skirt,
+    "trousers": trousers,
 }

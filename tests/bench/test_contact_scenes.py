@@ -31,6 +31,7 @@ TINY = {
     "walking_dress": {"around": 12, "along": 6, "frames": 2},
     "layered_dress": {"around": 12, "along": 6, "skirt_around": 14, "skirt_along": 4, "frames": 2},
     "loose_skirt": {"around": 12, "along": 6, "skirt_around": 14, "skirt_along": 4, "frames": 2},
+    "trousers": {"around": 8, "along": 6, "frames": 2},
 }
 
 
@@ -346,3 +347,13 @@ def test_bad_scene_args_are_named_before_anything_runs(items: list[str], message
     assert exc.value.code == 2
     err = capsys.readouterr().err
     assert "--scene-arg" in err and message in err
+
+
+def test_trousers_start_outside_the_legs_with_a_smaller_rest_shape(tmp_path: Path) -> None:
+    scene = build_scene("trousers", tmp_path, 2)
+    bodies = [BodyTrack(b.name, b.faces, b.frames[:1]) for b in scene.bodies]
+
+    m = contact_metrics(scene.positions[None], scene.faces, edge_rest_lengths(scene.face_uv), bodies, np.array([]), 24.0)
+    assert m["inside_max"] == 0 and m["cloth_body_pairs_max"] == 0
+    assert 0.004 < m["gap_min_m"] < 0.01
+    assert m["max_strain"] == pytest.approx(1 / 0.95)  # girth edges start 1/0.95 of their rest length

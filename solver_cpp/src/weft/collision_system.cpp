@@ -395,7 +395,7 @@ int CollisionSystem::motion_halvings(const Positions& x, const Positions& v, con
   std::vector<BodyMotion> motions(bodies.size());
   for (size_t b = 0; b < bodies.size(); ++b) {
     if (!detection_.bodies()[b].collide || !body_closed_[b]) continue;
-    motions[b] = {&bodies[b].frame_start(), &bodies[b].frame_end(), &bodies[b].faces(),
+    motions[b] = {&bodies[b].frame_start(), &bodies[b].frame_end(),
                   body_thickness(bodies[b].frame_start(), bodies[b].faces())};
   }
   const double widest_offset =

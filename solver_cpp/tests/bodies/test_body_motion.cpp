@@ -62,7 +62,7 @@ struct Crossing {
     thickness = body_thickness(bar_start, bar_faces);
   }
   int halvings(int max_halvings, int substeps = 4) const {
-    const std::vector<BodyMotion> bodies{{&bar_start, &bar_end, &bar_faces, thickness}};
+    const std::vector<BodyMotion> bodies{{&bar_start, &bar_end, thickness}};
     return motion_halvings(cloth, cloth_v, 0.004, 0.025, bodies, substeps, 1.0 / 24.0, max_halvings);
   }
 };
@@ -92,7 +92,7 @@ TEST(BodyMotion, OnlyClothTheBodyMeetsAndOnlyRelativeMotionCount) {
   still.cloth_v.col(2).setConstant(-0.2 * 24.0);
   EXPECT_EQ(still.halvings(2), 2);
   // Without a thickness (an open body) nothing is asked.
-  const std::vector<BodyMotion> open{{&still.bar_start, &still.bar_end, &still.bar_faces, 0.0}};
+  const std::vector<BodyMotion> open{{&still.bar_start, &still.bar_end, 0.0}};
   EXPECT_EQ(motion_halvings(still.cloth, still.cloth_v, 0.004, 0.025, open, 4, 1.0 / 24.0, 2), 0);
 }
 

@@ -43,8 +43,8 @@ int motion_halvings(const Positions& cloth_x, const Positions& cloth_v, double b
   const int cloth_count = static_cast<int>(cloth_x.rows());
   const double h = frame_duration / substeps;
   // Each cloth vertex's way over the frame (at its velocity), grown by the band and half a
-  // cloth edge: a body vertex whose own way, grown by half a body edge, overlaps none of these
-  // boxes passes near no cloth vertex. Built on the first body that needs it.
+  // cloth edge: a body vertex whose own way overlaps none of these boxes passes near no cloth
+  // vertex. Built on the first body that needs it.
   std::vector<Aabb> cloth_ways;
   AabbTree cloth_tree;
   double fastest = 0.0;  // the most a cloth vertex moves per substep
@@ -52,8 +52,7 @@ int motion_halvings(const Positions& cloth_x, const Positions& cloth_v, double b
   int halvings = 0;
   std::vector<std::pair<double, int>> fast;  // (bound on the relative motion per substep, body vertex)
   for (const BodyMotion& body : bodies) {
-    if (!(body.thickness > 0.0) || body.frame_start == nullptr || body.frame_end == nullptr || body.faces == nullptr)
-      continue;
+    if (!(body.thickness > 0.0) || body.frame_start == nullptr || body.frame_end == nullptr) continue;
     const Positions& start = *body.frame_start;
     const Positions& end = *body.frame_end;
     const int count = static_cast<int>(start.rows());
@@ -79,18 +78,11 @@ int motion_halvings(const Positions& cloth_x, const Positions& cloth_v, double b
       }
       cloth_tree.build(cloth_ways);
     }
-    // A body vertex stands for the faces around it: their points lie within half a body edge of a corner.
-    double body_edge = 0.0;
-    for (int f = 0; f < body.faces->rows(); ++f)
-      for (int c = 0; c < 3; ++c)
-        body_edge = std::max(body_edge, (Vec3(row3(start, (*body.faces)(f, c))) -
-                                         Vec3(row3(start, (*body.faces)(f, (c + 1) % 3)))).squaredNorm());
-    body_edge = std::sqrt(body_edge);
-    const double within = band + 0.5 * cloth_edge + 0.5 * body_edge;
+    const double within = band + 0.5 * cloth_edge;
     // A body vertex and a cloth vertex move relative to each other by `relative` per substep;
     // the pair counts when, moving linearly over the frame (the body vertex between its
-    // keyframes, the cloth vertex at its velocity), they pass within the band, half a cloth edge
-    // and half a body edge of each other. The fastest such pair decides the body's level.
+    // keyframes, the cloth vertex at its velocity), they pass within the band and half a cloth
+    // edge of each other. The fastest such pair decides the body's level.
     for (const auto& [bound, k] : fast) {
       if (bound <= found) break;
       const Vec3 p = row3(start, k);
@@ -98,7 +90,6 @@ int motion_halvings(const Positions& cloth_x, const Positions& cloth_v, double b
       Aabb way;
       way.expand(p);
       way.expand(Vec3(row3(end, k)));
-      way.inflate(0.5 * body_edge);
       cloth_tree.query(way, [&](int i) {
         const Vec3 step = body_step - h * Vec3(row3(cloth_v, i));  // the body vertex's, seen from the cloth vertex
         const double relative = step.norm();
