@@ -302,11 +302,10 @@ FrameTelemetry Simulation::advance_frame(double frame_start_time, double frame_d
   linear_->start_frame();
   // Each substep is taken as 2^level.start() pieces (SubstepLevel): one that had to be halved
   // makes the next start halved instead of trying, and abandoning, the full step again. Per
-  // frame: every frame starts with whole substeps, so a run resumed at any frame takes the
-  // same steps.
-  // A frame whose bodies move faster than their thickness through the cloth they reach in one
-  // substep starts its substeps halved as far as that takes (body_motion.h), keeping the
-  // reserve halving.
+  // frame: a frame starts with whole substeps unless its bodies move faster than their
+  // thickness through the cloth they reach in one substep; then no substep of it starts less
+  // halved than that asks (body_motion.h; the reserve halving kept). Both are decided from the
+  // frame's own state, so a run resumed at any frame takes the same steps.
   const int motion = collisions_ && settings_.max_substep_halvings > 1
                          ? collisions_->motion_halvings(x_, v_, bodies_, substeps, frame_duration,
                                                         settings_.max_substep_halvings - 1)

@@ -16,8 +16,9 @@ namespace weft {
 
 class SubstepLevel {
  public:
-  // `floor`: the level no substep of the frame starts above (whole is 0), known before the frame
-  // from how fast its bodies move (CollisionSystem::motion_halvings); kept within the deepest start.
+  // `floor`: the fewest halvings any substep of the frame starts at (0: whole), known before the
+  // frame from how fast its bodies move (CollisionSystem::motion_halvings); at most the deepest
+  // start.
   explicit SubstepLevel(int max_halvings, int floor = 0)
       : deepest_start_(std::max(0, max_halvings - 1)), floor_(std::clamp(floor, 0, deepest_start_)), start_(floor_) {}
   // Halvings the next substep starts at: it is taken as 2^start() pieces.
