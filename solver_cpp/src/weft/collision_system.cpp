@@ -302,7 +302,8 @@ void CollisionSystem::respond(const Positions& x, Positions& v, double h, const 
     const Timer timer;
     const bool any_stuck = constraints_.any_stuck();
     if (any_stuck) velocity_before_limit_ = v;
-    frame_.strain_limited_edges += strain_limit_.apply(step_, props_);
+    constraints_.contact_normals(static_cast<int>(x.rows()), contact_normals_);
+    frame_.strain_limited_edges += strain_limit_.apply(step_, props_, &contact_normals_);
     // Friction holds no cloth beyond the strain limit: a sticking vertex the limit moved slides.
     if (any_stuck) constraints_.unstick_changed(velocity_before_limit_, v);
     frame_.response_seconds += timer.seconds();

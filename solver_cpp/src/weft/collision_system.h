@@ -161,6 +161,7 @@ class CollisionSystem {
   std::function<bool(const Positions&)> abandon_test_;
   bool abandoned_ = false;
   StrainLimit strain_limit_;  // with settings_.max_strain and the cloth's rest lengths
+  std::vector<Vec3> contact_normals_;  // respond(): per cloth vertex, its contact's normal (strain_limit_)
   ContactConstraints constraints_;
   CollisionStep step_;
   CollisionTelemetry frame_;

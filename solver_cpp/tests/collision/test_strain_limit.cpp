@@ -70,6 +70,40 @@ TEST(StrainLimit, APinnedEndStaysAndAForcedStretchRelaxesGradually) {
   EXPECT_FALSE(none.enabled());
 }
 
+// Vertex 0 rests on a body below it (outward normal +z, the floor z = 0) and vertex 1 flies off
+// down and away: the correction that pulls 0 towards 1 would take it into the body. With the
+// contact's normal given, 0 slides along the body (its end stays at z = 0) and 1 takes the
+// rest, until every edge is within the limit; without it, 0 sinks below the floor.
+TEST(StrainLimit, AVertexHeldOnABodySlidesAlongItInsteadOfIntoIt) {
+  const std::vector<Vec3> normals = {Vec3(0.0, 0.0, 1.0), Vec3::Zero(), Vec3::Zero()};
+  auto pulled = [] {
+    Triangle t;
+    t.v.row(1) << 100.0, 0.0, -100.0;  // ends at (2, 0, -1): edge (0, 1) about 2.24 m
+    t.step.begin(t.x, t.v, 0.01);
+    return t;
+  };
+  Triangle plain = pulled();
+  EXPECT_GT(plain.limit(1.4).apply(plain.step, plain.props), 0);
+  EXPECT_LT(plain.step.x_end(0, 2), -0.1);  // into the body
+
+  Triangle held = pulled();
+  EXPECT_GT(held.limit(1.4).apply(held.step, held.props, &normals), 0);
+  EXPECT_NEAR(held.step.x_end(0, 2), 0.0, 1e-12);
+  EXPECT_GT(held.step.x_end(0, 0), 0.1);  // it slid towards 1 along the body
+  for (int c = 0; c < 3; ++c) {
+    const int a = held.faces(0, c), b = held.faces(0, (c + 1) % 3);
+    EXPECT_LE((held.step.x_end.row(a) - held.step.x_end.row(b)).norm(), 1.4 + 1e-6) << "edge " << c;
+  }
+  // v follows x_end; a move out of the body (vertex 1 pulled up towards 0) is not removed.
+  EXPECT_LT((held.step.x_end - (held.x + 0.01 * held.v)).cwiseAbs().maxCoeff(), 1e-12);
+  Triangle lifted;
+  lifted.v.row(0) << -100.0, 0.0, 0.0;
+  lifted.x.row(1) << 1.0, 0.0, 1.0;  // above 0: pulling 0 towards it lifts 0 off the body
+  lifted.step.begin(lifted.x, lifted.v, 0.01);
+  EXPECT_GT(lifted.limit(1.4).apply(lifted.step, lifted.props, &normals), 0);
+  EXPECT_GT(lifted.step.x_end(0, 2), 0.01);
+}
+
 // A stretch left by something after the limit (CCD impulses, say) and not renewed relaxes
 // towards the limit step after step instead of staying: the excess halves every step.
 TEST(StrainLimit, AnUnforcedStretchRelaxesTowardsTheLimit) {

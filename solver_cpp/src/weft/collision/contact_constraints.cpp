@@ -350,6 +350,11 @@ int ContactConstraints::impulses(const VectorX& residual) {
   return pulled;
 }
 
+void ContactConstraints::contact_normals(int vertex_count, std::vector<Vec3>& normals) const {
+  normals.assign(static_cast<size_t>(vertex_count), Vec3::Zero());
+  for (const Contact& c : contacts_) normals[static_cast<size_t>(c.vertex)] = c.normal;
+}
+
 void ContactConstraints::friction(CollisionStep& step, const ContactProperties& props) {
   for (const Contact& c : contacts_) {
     const double mu = props.friction[c.vertex];

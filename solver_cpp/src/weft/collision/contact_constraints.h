@@ -63,6 +63,10 @@ class ContactConstraints {
   // After the solve: Coulomb friction of this step's contacts on step.v, except those the solve
   // held as sticking; marks the held contacts friction stopped (they stick in the next solve).
   void friction(CollisionStep& step, const ContactProperties& props);
+  // Per cloth vertex (vertex_count entries): the outward normal of the body face this step's
+  // constraint held it against, zero for a vertex without one. The strain limit moves such a
+  // vertex along the body, not into it (strain_limit.h).
+  void contact_normals(int vertex_count, std::vector<Vec3>& normals) const;
   bool any_stuck() const { return std::find(stuck_.begin(), stuck_.end(), 1) != stuck_.end(); }
   // After friction: a vertex marked sticking whose velocity changed from before to after (the
   // strain limit moved it) does not stick in the next solve.

@@ -5,6 +5,16 @@
 
 namespace weft {
 
+namespace {
+
+// A held vertex's move without its part into the body whose outward normal is n (zero: none).
+void along_body(Vec3& move, const Vec3& n) {
+  const double into = move.dot(n);
+  if (into < 0.0) move -= into * n;
+}
+
+}  // namespace
+
 StrainLimit::StrainLimit(const Faces& faces, const std::vector<std::array<double, 3>>& face_rest_lengths,
                          double max_strain, int passes)
     : passes_(passes) {
@@ -27,7 +37,8 @@ StrainLimit::StrainLimit(const Faces& faces, const std::vector<std::array<double
   }
 }
 
-int StrainLimit::apply(CollisionStep& step, const ContactProperties& props) const {
+int StrainLimit::apply(CollisionStep& step, const ContactProperties& props,
+                       const std::vector<Vec3>* contact_normals) const {
   int corrections = 0;
   const Positions& x = *step.x;
   // Allowed length per edge: fixed for the step (it depends on the start positions only).
@@ -51,8 +62,13 @@ int StrainLimit::apply(CollisionStep& step, const ContactProperties& props) cons
       const double length = d.norm();
       if (!(length > allowed[k])) continue;
       const Vec3 shift = (length - (1.0 - kStrainLimitSlack) * allowed[k]) / length * d;
-      step.x_end.row(i) += (wi / (wi + wj)) * shift.transpose();
-      step.x_end.row(j) -= (wj / (wi + wj)) * shift.transpose();
+      Vec3 move_i = (wi / (wi + wj)) * shift, move_j = -(wj / (wi + wj)) * shift;
+      if (contact_normals) {
+        along_body(move_i, (*contact_normals)[static_cast<size_t>(i)]);
+        along_body(move_j, (*contact_normals)[static_cast<size_t>(j)]);
+      }
+      step.x_end.row(i) += move_i.transpose();
+      step.x_end.row(j) += move_j.transpose();
       for (int p : {i, j}) {
         step.v->row(p) = (step.x_end.row(p) - x.row(p)) / step.h;
         step.moved(p);

@@ -17,7 +17,11 @@
 // longer than that, the limit plus half of its excess: a stretch that a pin or a body forces is
 // given back gradually instead of being yanked back in one step (it is forced again where the
 // cause persists), and a stretch the CCD impulses left relaxes towards the limit instead of
-// ratcheting up from step to step.
+// ratcheting up from step to step. A vertex the contact constraints held on a body this step
+// is moved along the body, not into it: on a tight dress over swinging thighs, friction drags
+// held hem vertices and the limit pulled them back along the edge's chord, into the leg, where
+// CCD pushed them out again by 1-2.5 mm and stretched the edge past the limit once more
+// (docs/collisions.md, thirty-fourth session).
 #pragma once
 
 #include <array>
@@ -40,7 +44,11 @@ class StrainLimit {
   StrainLimit(const Faces& faces, const std::vector<std::array<double, 3>>& face_rest_lengths, double max_strain,
               int passes = kStrainLimitPasses);
   // Adjusts step.v (and step.x_end) of free vertices; returns the number of edge corrections.
-  int apply(CollisionStep& step, const ContactProperties& props) const;
+  // contact_normals (per cloth vertex, or null): the outward normal of the body a vertex is held
+  // on this step, zero where none; such a vertex's share of a correction loses its part into
+  // the body (it slides along the body instead of being pulled into it).
+  int apply(CollisionStep& step, const ContactProperties& props,
+            const std::vector<Vec3>* contact_normals = nullptr) const;
   bool enabled() const { return !edges_.empty(); }
 
  private:
