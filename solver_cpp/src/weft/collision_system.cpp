@@ -302,8 +302,12 @@ void CollisionSystem::respond(const Positions& x, Positions& v, double h, const 
     const Timer timer;
     const bool any_stuck = constraints_.any_stuck();
     if (any_stuck) velocity_before_limit_ = v;
-    constraints_.contact_normals(static_cast<int>(x.rows()), contact_normals_);
-    frame_.strain_limited_edges += strain_limit_.apply(step_, props_, &contact_normals_);
+    const std::vector<Vec3>* held_normals = nullptr;  // cloth the contact constraints held slides along the body
+    if (!constraints_.empty()) {
+      constraints_.contact_normals(static_cast<int>(x.rows()), contact_normals_);
+      held_normals = &contact_normals_;
+    }
+    frame_.strain_limited_edges += strain_limit_.apply(step_, props_, held_normals);
     // Friction holds no cloth beyond the strain limit: a sticking vertex the limit moved slides.
     if (any_stuck) constraints_.unstick_changed(velocity_before_limit_, v);
     frame_.response_seconds += timer.seconds();

@@ -94,11 +94,12 @@ TEST(StrainLimit, AVertexHeldOnABodySlidesAlongItInsteadOfIntoIt) {
     const int a = held.faces(0, c), b = held.faces(0, (c + 1) % 3);
     EXPECT_LE((held.step.x_end.row(a) - held.step.x_end.row(b)).norm(), 1.4 + 1e-6) << "edge " << c;
   }
-  // v follows x_end; a move out of the body (vertex 1 pulled up towards 0) is not removed.
+  // v follows x_end.
   EXPECT_LT((held.step.x_end - (held.x + 0.01 * held.v)).cwiseAbs().maxCoeff(), 1e-12);
+  // A move out of the body is kept: vertex 1 above 0, so pulling 0 towards it lifts 0 off.
   Triangle lifted;
   lifted.v.row(0) << -100.0, 0.0, 0.0;
-  lifted.x.row(1) << 1.0, 0.0, 1.0;  // above 0: pulling 0 towards it lifts 0 off the body
+  lifted.x.row(1) << 1.0, 0.0, 1.0;
   lifted.step.begin(lifted.x, lifted.v, 0.01);
   EXPECT_GT(lifted.limit(1.4).apply(lifted.step, lifted.props, &normals), 0);
   EXPECT_GT(lifted.step.x_end(0, 2), 0.01);
