@@ -92,6 +92,10 @@ class FrameTelemetry(BaseModel):
     motion_halvings: int = Field(
         0, description="halvings every substep of the frame started at because a body moves faster than its "
                        "thickness through the cloth it meets within one substep (0: whole substeps)")
+    # Kinetic friction spread through the cloth (issue 12); appended.
+    friction_spreads: int = Field(
+        0, description="substeps whose kinetic friction lengthened an edge past the strain limit when applied to "
+                       "the held vertices alone, and went through the cloth's implicit response instead")
 
 
 _DTYPES = {int: "i4", float: "f8"}

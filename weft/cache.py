@@ -403,12 +403,15 @@ def describe_cache(path: str | Path) -> dict[str, Any]:
             summary["unconverged_substeps"] = int(np.sum(simulated["unconverged_substeps"]))
             names = simulated.dtype.names
             # Adaptive substepping: steps taken, halved after a failed attempt, and frames started
-            # halved for their bodies' motion (columns of older caches may be missing).
+            # halved for their bodies' motion; steps whose kinetic friction went through the
+            # cloth's response (columns of older caches may be missing).
             summary["substeps"] = int(np.sum(simulated["substeps"]))
             if "subdivided_substeps" in names:
                 summary["halved_substeps"] = int(np.sum(simulated["subdivided_substeps"]))
             if "motion_halvings" in names:
                 summary["frames_started_halved"] = int(np.count_nonzero(simulated["motion_halvings"]))
+            if "friction_spreads" in names:
+                summary["friction_spreads"] = int(np.sum(simulated["friction_spreads"]))
             # What each collision feature costs, for shots that use collisions (columns of older
             # caches may be missing).
             collides = bool(np.any(simulated["collision_seconds"] > 0.0))

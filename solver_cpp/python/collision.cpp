@@ -110,6 +110,7 @@ void bind_collision(py::module_& m) {
       .def_readwrite("body_pinch", &CollisionSettings::body_pinch)
       .def_readwrite("part_pinch", &CollisionSettings::part_pinch)
       .def_readwrite("local_aside", &CollisionSettings::local_aside)
+      .def_readwrite("spread_friction", &CollisionSettings::spread_friction)
       .def_readwrite("self_culling", &CollisionSettings::self_culling)
       .def_readwrite("body_group", &CollisionSettings::body_group)
       .def_readwrite("body_offset", &CollisionSettings::body_offset)
@@ -141,6 +142,7 @@ void bind_collision(py::module_& m) {
       .def_property_readonly("released_contacts", [](const FrameTelemetry& t) { return t.collision.released_contacts; })
       .def_property_readonly("strain_limited_edges",
                              [](const FrameTelemetry& t) { return t.collision.strain_limited_edges; })
+      .def_property_readonly("friction_spreads", [](const FrameTelemetry& t) { return t.collision.friction_spreads; })
       .def_property_readonly("ccd_candidates", [](const FrameTelemetry& t) { return t.collision.ccd_candidates; })
       .def_property_readonly("ccd_hits", [](const FrameTelemetry& t) { return t.collision.ccd_hits; })
       .def_property_readonly("impact_zones", [](const FrameTelemetry& t) { return t.collision.impact_zones; })

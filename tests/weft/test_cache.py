@@ -183,9 +183,11 @@ def test_a_shot_with_bodies_resumes_bitwise(tmp_path, scene: str) -> None:
     # `weft info`'s substeps: the same steps in both; only the thin limb (3 cm thick, 3 m/s) has
     # frames started halved for its motion.
     info_whole, info_split = describe_cache(whole), describe_cache(split)
-    for key in ("substeps", "halved_substeps", "frames_started_halved"):
+    for key in ("substeps", "halved_substeps", "frames_started_halved", "friction_spreads"):
         assert info_whole[key] == info_split[key], key
     assert (info_whole["frames_started_halved"] > 0) == (scene == "thin_limb"), info_whole
+    if scene == "thin_limb":  # resumed across steps whose friction went through the sheet's response
+        assert info_whole["friction_spreads"] > 0, info_whole
 
 
 def test_set_state_checks_the_collision_flags(tmp_path) -> None:

@@ -139,6 +139,8 @@ def _substeps_line(info: dict) -> str:
         parts.append(f"{info['halved_substeps']} halved after a failed attempt")
     if "frames_started_halved" in info:
         parts.append(f"{info['frames_started_halved']} frames started halved for fast bodies")
+    if info.get("friction_spreads"):
+        parts.append(f"{info['friction_spreads']} with friction spread through the cloth")
     return ", ".join(parts)
 
 

@@ -256,6 +256,39 @@ void CollisionSystem::redetect(std::vector<int>& hits) {
   ccd_.pass(step_, props_, false, &hits, true, frame_);
 }
 
+void CollisionSystem::spread_friction(const Positions& x, Positions& v, double h) {
+  // Only the friction of contacts sliding less than kSpreadSlide thicknesses over the step:
+  // cloth carried by its body (a garment on a swinging leg). Friction from a body sweeping past
+  // the cloth (a thin limb at metres per second) stays on the vertex, so the cloth slides round
+  // the body instead of being carried by it (docs/collisions.md, twenty-fourth and thirty-fifth
+  // sessions).
+  const auto vertex_count = static_cast<size_t>(x.rows());
+  friction_spread_.clear();
+  for (const ContactConstraints::FrictionChange& c : constraints_.friction_changes())
+    if (c.slide < kSpreadSlide * props_.thickness[c.vertex] && props_.inverse_mass[c.vertex] > 0.0)
+      friction_spread_.push_back(&c);
+  if (friction_spread_.empty()) return;
+  friction_end_change_.assign(vertex_count, Vec3::Zero());
+  for (const ContactConstraints::FrictionChange* c : friction_spread_)
+    friction_end_change_[static_cast<size_t>(c->vertex)] += h * c->change;
+  if (!strain_limit_.lengthened_beyond(step_, friction_end_change_)) return;
+  // Undone on the vertices alone, passed to the cloth as the impulses they were.
+  friction_impulse_.setZero(3 * x.rows());
+  for (const ContactConstraints::FrictionChange* c : friction_spread_) {
+    friction_impulse_.segment<3>(3 * c->vertex) += c->change / props_.inverse_mass[c->vertex];
+    v.row(c->vertex) -= c->change.transpose();
+  }
+  friction_response_(friction_impulse_, friction_velocity_);
+  if (friction_velocity_.size() != 3 * x.rows() || !friction_velocity_.allFinite()) {
+    // No usable response (a system the solve could not handle): friction on the vertices alone.
+    for (const ContactConstraints::FrictionChange* c : friction_spread_) v.row(c->vertex) += c->change.transpose();
+    return;
+  }
+  for (Eigen::Index i = 0; i < x.rows(); ++i) v.row(i) += friction_velocity_.segment<3>(3 * i).transpose();
+  step_.x_end = x + h * v;
+  ++frame_.friction_spreads;
+}
+
 void CollisionSystem::respond(const Positions& x, Positions& v, double h, const std::vector<KinematicBody>& bodies,
                               double alpha0, double alpha1) {
   step_.begin(x, v, h);
@@ -263,6 +296,7 @@ void CollisionSystem::respond(const Positions& x, Positions& v, double h, const 
   abandoned_ = false;
   body_positions(bodies, alpha0, alpha1);
   constraints_.friction(step_, props_);
+  if (friction_response_ && strain_limit_.enabled()) spread_friction(x, v, h);
   if (pinch_)
     pinch_->update(step_, detection_, props_.default_thickness, gia_due_, frame_,
                    gia_all_bodies_ ? nullptr : &gia_watch_);

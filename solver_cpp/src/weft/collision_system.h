@@ -33,6 +33,10 @@
 
 namespace weft {
 
+// Kinetic friction goes through the cloth's response (spread_friction_with) only from contacts
+// that slid less than this many thicknesses along their body over the step.
+constexpr double kSpreadSlide = 3.0;
+
 class GiaBodyDriver;
 class PinchDriver;
 
@@ -76,6 +80,16 @@ class CollisionSystem {
   // spends no more passes or impact zones on a result it throws away.
   void abandon_when(std::function<bool(const Positions&)> test) { abandon_test_ = std::move(test); }
   bool abandoned() const { return abandoned_; }
+  // The cloth's response to impulses in one implicit step (null: none): response(impulse,
+  // velocity_change), both 3 entries per cloth vertex, velocity_change zero along what the
+  // step's solve held (Simulation: LinearSystemPath::solve_response). Where kinetic friction
+  // applied to single held vertices lengthens an edge beyond the strain limit's allowed length,
+  // respond() passes its impulses through it instead, so the held vertices' neighbours come
+  // along: friction acts on the cloth, not on the vertex alone; only for contacts sliding less
+  // than kSpreadSlide thicknesses over the step (docs/collisions.md, thirty-fifth session).
+  void spread_friction_with(std::function<void(const VectorX&, VectorX&)> response) {
+    friction_response_ = std::move(response);
+  }
   void begin_frame() { frame_ = {}; }
   // The contact constraints' per-vertex decisions of the last step (ContactConstraints::flags):
   // part of the state a resumed run restores.
@@ -162,6 +176,13 @@ class CollisionSystem {
   bool abandoned_ = false;
   StrainLimit strain_limit_;  // with settings_.max_strain and the cloth's rest lengths
   std::vector<Vec3> contact_normals_;  // respond(): per cloth vertex, its contact's normal (strain_limit_)
+  std::function<void(const VectorX&, VectorX&)> friction_response_;  // spread_friction_with
+  // Kinetic friction's velocity changes through friction_response_ where, applied to the held
+  // vertices alone, they lengthened an edge beyond its allowed length (respond()).
+  void spread_friction(const Positions& x, Positions& v, double h);
+  std::vector<Vec3> friction_end_change_;  // spread_friction scratch: per cloth vertex
+  std::vector<const ContactConstraints::FrictionChange*> friction_spread_;  // spread_friction scratch
+  VectorX friction_impulse_, friction_velocity_;
   ContactConstraints constraints_;
   CollisionStep step_;
   CollisionTelemetry frame_;

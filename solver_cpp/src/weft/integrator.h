@@ -164,6 +164,7 @@ class Simulation {
   // Collision stage (collision_system.h): null when the scene has collisions switched off.
   std::unique_ptr<CollisionSystem> collisions_;
   double step_alpha_start_ = 0.0;  // frame fraction at the start of the current substep
+  double friction_response_seconds_ = 0.0;  // of the current step's collision stage: solve_response
 };
 
 }  // namespace weft

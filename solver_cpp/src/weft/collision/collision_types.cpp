@@ -10,6 +10,7 @@ void CollisionTelemetry::add(const CollisionTelemetry& o) {
   contact_constraints += o.contact_constraints;
   released_contacts += o.released_contacts;
   strain_limited_edges += o.strain_limited_edges;
+  friction_spreads += o.friction_spreads;
   proximity_seconds += o.proximity_seconds;
   ccd_seconds += o.ccd_seconds;
   response_seconds += o.response_seconds;

@@ -52,6 +52,10 @@ struct CollisionSettings {
   // Strain limiting before CCD (strain_limit.h): no step stretches an edge beyond this times its
   // rest length (<= 1: off).
   double max_strain = 1.4;
+  // Kinetic friction that would stretch an edge past the strain limit acting on the held
+  // vertices alone goes through the cloth's implicit response instead (collision_system.h,
+  // spread_friction_with; needs the strain limit). Off only to compare (tests, benchmarks).
+  bool spread_friction = true;
 };
 
 struct CollisionTelemetry {
@@ -68,6 +72,7 @@ struct CollisionTelemetry {
   int contact_constraints = 0;  // cloth/body contacts constrained in the solve, summed over substeps
   int released_contacts = 0;    // of those, released after the solve (the cloth pulled away)
   int strain_limited_edges = 0;  // edge corrections of the strain limit, summed over passes and substeps
+  int friction_spreads = 0;      // substeps whose kinetic friction went through the cloth's response (respond)
   int ccd_candidates = 0;  // feature pairs a CCD pass examined (incremental passes: those with a moved vertex)
   int ccd_hits = 0;
   int impact_zones = 0;

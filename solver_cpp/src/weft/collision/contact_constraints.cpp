@@ -356,6 +356,7 @@ void ContactConstraints::contact_normals(int vertex_count, std::vector<Vec3>& no
 }
 
 void ContactConstraints::friction(CollisionStep& step, const ContactProperties& props) {
+  friction_changes_.clear();
   for (const Contact& c : contacts_) {
     const double mu = props.friction[c.vertex];
     if (c.stuck) {  // the solve kept it on the body
@@ -379,8 +380,10 @@ void ContactConstraints::friction(CollisionStep& step, const ContactProperties& 
     // Coulomb: the tangential velocity change is at most mu times the normal one.
     const double scale = std::max(0.0, 1.0 - mu * pressing * props.inverse_mass[c.vertex] / vt_norm);
     if (scale == 0.0 && may_stick) stuck_[c.vertex] = 1;  // stopped: sticks in the next solve
-    step.v->row(c.vertex) += ((scale - 1.0) * v_t).transpose();
+    const Vec3 change = (scale - 1.0) * v_t;
+    step.v->row(c.vertex) += change.transpose();
     step.moved(c.vertex);
+    friction_changes_.push_back({c.vertex, change, vt_norm * step.h});
   }
 }
 

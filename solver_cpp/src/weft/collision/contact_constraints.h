@@ -62,7 +62,15 @@ class ContactConstraints {
   int impulses(const VectorX& residual);
   // After the solve: Coulomb friction of this step's contacts on step.v, except those the solve
   // held as sticking; marks the held contacts friction stopped (they stick in the next solve).
+  // Each vertex's velocity change from it is listed in friction_changes() (kinetic friction
+  // only: a sticking vertex is held by the solve), in contact order.
   void friction(CollisionStep& step, const ContactProperties& props);
+  struct FrictionChange {
+    int vertex;
+    Vec3 change;   // of its velocity
+    double slide;  // how far it slid along the body over the step before friction, m
+  };
+  const std::vector<FrictionChange>& friction_changes() const { return friction_changes_; }
   // Per cloth vertex (vertex_count entries): the outward normal of the body face this step's
   // constraint held it against, zero for a vertex without one. The strain limit moves such a
   // vertex along the body, not into it (strain_limit.h).
@@ -141,6 +149,7 @@ class ContactConstraints {
                                       const std::vector<char>& open_end);
 
   std::vector<Contact> contacts_;
+  std::vector<FrictionChange> friction_changes_;  // the last friction()'s
   std::vector<char> released_;  // per cloth vertex: its constraint pulled last step, free this step
   std::vector<char> held_;      // per cloth vertex: constrained last step with a pushing impulse
   std::vector<char> stuck_;     // per cloth vertex: held, and static friction stopped it last step

@@ -37,17 +37,33 @@ StrainLimit::StrainLimit(const Faces& faces, const std::vector<std::array<double
   }
 }
 
+double StrainLimit::allowed_length(size_t k, const Positions& x) const {
+  const double start_length = (row3(x, edges_[k][1]) - row3(x, edges_[k][0])).norm();
+  return limit_[k] + kKeptExcess * std::max(start_length - limit_[k], 0.0);
+}
+
+bool StrainLimit::lengthened_beyond(const CollisionStep& step, const std::vector<Vec3>& end_change) const {
+  const Positions& x = *step.x;
+  for (size_t k = 0; k < edges_.size(); ++k) {
+    const int i = edges_[k][0], j = edges_[k][1];
+    const Vec3& ci = end_change[static_cast<size_t>(i)];
+    const Vec3& cj = end_change[static_cast<size_t>(j)];
+    if (ci == Vec3::Zero() && cj == Vec3::Zero()) continue;
+    const Vec3 after = row3(step.x_end, j) - row3(step.x_end, i);
+    const double length = after.norm();
+    const double allowed = allowed_length(k, x);
+    if (length > allowed && length > (after - cj + ci).norm()) return true;
+  }
+  return false;
+}
+
 int StrainLimit::apply(CollisionStep& step, const ContactProperties& props,
                        const std::vector<Vec3>* contact_normals) const {
   int corrections = 0;
   const Positions& x = *step.x;
   // Allowed length per edge: fixed for the step (it depends on the start positions only).
   std::vector<double> allowed(edges_.size());
-  for (size_t k = 0; k < edges_.size(); ++k) {
-    const int i = edges_[k][0], j = edges_[k][1];
-    const double start_length = (row3(x, j) - row3(x, i)).norm();
-    allowed[k] = limit_[k] + kKeptExcess * std::max(start_length - limit_[k], 0.0);
-  }
+  for (size_t k = 0; k < edges_.size(); ++k) allowed[k] = allowed_length(k, x);
   // The last pass in which each vertex moved (-1: not yet). After pass 0 an edge whose ends
   // did not move in this pass or the one before is as the previous pass left it: within limit.
   std::vector<int> moved_in_pass(static_cast<size_t>(x.rows()), -1);

@@ -50,8 +50,15 @@ class StrainLimit {
   int apply(CollisionStep& step, const ContactProperties& props,
             const std::vector<Vec3>* contact_normals = nullptr) const;
   bool enabled() const { return !edges_.empty(); }
+  // Whether moving the end positions of some vertices by end_change (per cloth vertex; the step's
+  // x_end is after the move) lengthened an edge at one of them to beyond its allowed length.
+  bool lengthened_beyond(const CollisionStep& step, const std::vector<Vec3>& end_change) const;
 
  private:
+  // Edge k's allowed length for a step from x: the limit, or the limit plus kKeptExcess of the
+  // excess it starts with.
+  double allowed_length(size_t k, const Positions& x) const;
+
   std::vector<std::array<int, 2>> edges_;
   std::vector<double> limit_;  // max_strain x rest length, per edge
   int passes_ = kStrainLimitPasses;

@@ -284,6 +284,35 @@ PcgStats FastLinearSystem<Scalar>::solve_with(const ConstraintFilter& filter, Ve
   return stats;
 }
 
+template <class Scalar>
+PcgStats FastLinearSystem<Scalar>::solve_response(const VectorX& rhs, VectorX& y, const PcgSettings& pcg) {
+  const int n = mesh_.vertex_count;
+  if (rhs.size() != 3 * n) throw std::invalid_argument("rhs must have 3 entries per vertex");
+  if (solves_ == 0) throw std::logic_error("solve_response needs a solve of the same system before it");
+  const int threads = n >= kParallelSolveRows ? options_.threads : 1;
+  // The last solve's filter (row order) with nothing prescribed: y stays zero along it.
+  response_filter_.projection = permuted_filter_.projection;
+  response_filter_.constrained_vertices = permuted_filter_.constrained_vertices;
+  response_filter_.prescribed.setZero(3 * n);
+  response_rhs_.resize(3 * n);
+  response_y_.setZero(3 * n);
+  for (int r = 0; r < n; ++r) response_rhs_.segment<3>(3 * r) = rhs.segment<3>(3 * order_[r]);
+  auto apply = [this, threads](const VectorX& in, VectorX& out, double* chunk_dots) {
+    out.resize(in.size());
+    matrix_.multiply(in.data(), out.data(), threads, chunk_dots);
+  };
+  PcgStats stats;
+  if (last_multigrid_) {  // the hierarchy as the last solve left it: current for this filter
+    auto cycle = [this, threads](const VectorX& r, VectorX& z) { multigrid_->apply(r, z, threads); };
+    stats = prefiltered_pcg(apply, diagonal_, response_filter_, response_rhs_, response_y_, pcg, threads, cycle);
+  } else {
+    stats = prefiltered_pcg(apply, diagonal_, response_filter_, response_rhs_, response_y_, pcg, threads);
+  }
+  y.resize(3 * n);
+  for (int r = 0; r < n; ++r) y.segment<3>(3 * order_[r]) = response_y_.segment<3>(3 * r);
+  return stats;
+}
+
 // The finest level lumps a hinge's wing coupling W (multigrid.h): exact on translations and
 // smooth bending of a flat hinge, it stiffens a folded hinge's wings by about |W| theta^2, which
 // CG does not notice while |W| is small beside the wing masses (cloth of a centimetre or more:

@@ -42,6 +42,7 @@ class FastLinearSystem final : public LinearSystemPath {
 
   void build(const Positions& x, const Positions& v, double time, double h) override;
   PcgStats solve(const ConstraintFilter& filter, VectorX& dv) override;
+  PcgStats solve_response(const VectorX& rhs, VectorX& y, const PcgSettings& pcg) override;
   void residual(const VectorX& dv, VectorX& r) const override;
   TransientElements* transient() override { return &transient_; }
   void start_frame() override {
@@ -91,6 +92,8 @@ class FastLinearSystem final : public LinearSystemPath {
   std::vector<Mat3> diagonal_;
   ConstraintFilter permuted_filter_;
   VectorX permuted_dv_;
+  ConstraintFilter response_filter_;  // permuted_filter_ with nothing prescribed (solve_response)
+  VectorX response_rhs_, response_y_;
   std::unique_ptr<SmoothedAggregation> multigrid_;
   double multigrid_structure_seconds_ = 0.0, multigrid_setup_seconds_ = 0.0, multigrid_last_setup_seconds_ = 0.0;
   long long solves_ = 0;

@@ -1,3 +1,4 @@
+#include <stdexcept>
 #include "weft/linear_system/linear_system.h"
 
 #include <Eigen/IterativeLinearSolvers>
@@ -173,7 +174,16 @@ void ReferenceLinearSystem::build(const Positions& x, const Positions& v, double
 }
 
 PcgStats ReferenceLinearSystem::solve(const ConstraintFilter& filter, VectorX& dv) {
+  response_filter_ = filter;
+  response_filter_.prescribed.setZero();
   return eigen_cg_prefiltered(assembler_.matrix(), assembler_.rhs(), filter, dv, options_.pcg, options_.threads);
+}
+
+PcgStats ReferenceLinearSystem::solve_response(const VectorX& rhs, VectorX& y, const PcgSettings& pcg) {
+  if (response_filter_.projection.size() * 3 != static_cast<size_t>(rhs.size()))
+    throw std::logic_error("solve_response needs a solve of the same system before it");
+  y.setZero(rhs.size());
+  return eigen_cg_prefiltered(assembler_.matrix(), rhs, response_filter_, y, pcg, options_.threads);
 }
 
 LinearSystemInfo ReferenceLinearSystem::info() const {

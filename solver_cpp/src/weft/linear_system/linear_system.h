@@ -57,6 +57,7 @@ class ReferenceLinearSystem final : public LinearSystemPath {
       : mesh_(mesh), model_(model), options_(options), assembler_(mesh) {}
   void build(const Positions& x, const Positions& v, double time, double h) override;
   PcgStats solve(const ConstraintFilter& filter, VectorX& dv) override;
+  PcgStats solve_response(const VectorX& rhs, VectorX& y, const PcgSettings& pcg) override;
   void residual(const VectorX& dv, VectorX& r) const override { r = assembler_.rhs() - assembler_.matrix() * dv; }
   LinearSystemInfo info() const override;
   const ReferenceAssembler& assembler() const { return assembler_; }
@@ -67,6 +68,7 @@ class ReferenceLinearSystem final : public LinearSystemPath {
   LinearSystemOptions options_;
   ReferenceAssembler assembler_;
   ElementBuffers elements_;
+  ConstraintFilter response_filter_;  // the last solve's, nothing prescribed (solve_response)
 };
 
 // For verification: the global force and Jacobians dF/dx and dF/dv from element buffers.

@@ -65,6 +65,12 @@ class LinearSystemPath {
   virtual void build(const Positions& x, const Positions& v, double time, double h) = 0;
   // dv: warm start on entry, solution on exit.
   virtual PcgStats solve(const ConstraintFilter& filter, VectorX& dv) = 0;
+  // y = A^-1 rhs for the last solved system's matrix, in the free directions of the last
+  // solve's filter (its constrained directions of y stay zero; `rhs` and y in the original
+  // order), from y = 0, at most pcg.max_iterations CG iterations with the preconditioner the
+  // last solve used as it stands (no refresh). What an impulse applied to a few vertices does
+  // to the whole cloth in one implicit step: friction spread through it (contact_constraints.h).
+  virtual PcgStats solve_response(const VectorX& rhs, VectorX& y, const PcgSettings& pcg) = 0;
   // r = b - A dv for the last built system (original vertex order, unfiltered): at a vertex
   // whose direction n a constraint prescribed, -n . r_i is the impulse the constraint had to add
   // (positive when it pushed along n).
