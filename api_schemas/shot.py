@@ -225,8 +225,9 @@ class SolverSettings(StrictModel):
         2, ge=0, le=6,
         description=("Adaptive substepping: a substep whose collision stage leaves pairs unresolved (or "
                      "overstretches an edge, see max_step_strain) is redone as two halves, at most this many "
-                     "halvings deep (0: never); the frame's next substep then starts halved, and one taken "
-                     "without a halving lets the next go one level up again. From 2, a frame in which a "
+                     "halvings deep (0: never); the frame's next substep then starts one level deeper (down to "
+                     "this many halvings, whose pieces are taken as they end), and one taken without a halving "
+                     "lets the next go one level up again. From 2, a frame in which a "
                      "collidable closed body moves faster than its own thickness through the cloth it meets "
                      "within one substep (a thin limb at metres per second) starts its substeps halved, up to "
                      "one level less than this."),

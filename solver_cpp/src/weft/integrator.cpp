@@ -321,8 +321,9 @@ FrameTelemetry Simulation::advance_frame(double frame_start_time, double frame_d
   // makes the next start halved instead of trying, and abandoning, the full step again. Per
   // frame: a frame starts with whole substeps unless its bodies move faster than their
   // thickness through the cloth they reach in one substep; then no substep of it starts less
-  // halved than that asks (body_motion.h; the reserve halving kept). Both are decided from the
-  // frame's own state, so a run resumed at any frame takes the same steps.
+  // halved than that asks (body_motion.h; a halving short of the deepest level, so that the
+  // frame's pieces can still be halved for what the motion estimate misses). Both are decided
+  // from the frame's own state, so a run resumed at any frame takes the same steps.
   const int motion = collisions_ && settings_.max_substep_halvings > 1
                          ? collisions_->motion_halvings(x_, v_, bodies_, substeps, frame_duration,
                                                         settings_.max_substep_halvings - 1)

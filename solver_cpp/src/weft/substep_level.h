@@ -6,8 +6,12 @@
 // its abandoned attempt costs a solve and a collision stage for nothing. So a substep that
 // needed a halving makes the next one start one level deeper, and one that ran at its level
 // without a halving lets the next start one level higher again: the step size follows the
-// trouble within a frame, one level per substep. The deepest start keeps one halving in
-// reserve (a start at the deepest level would leave the fail-safe no halving to fall back on).
+// trouble within a frame, one level per substep. The deepest start is the deepest level
+// (max_halvings): a piece there cannot be halved and is taken as it ends, which is also what
+// becomes of the halves of a piece one level up that failed, so starting there gives the same
+// pieces without that piece's attempt thrown away first. (Until the thirty-seventh session the
+// deepest start kept a halving in reserve, and a trouble that needed the deepest pieces threw
+// away an attempt one level up for every two of them.)
 #pragma once
 
 #include <algorithm>
@@ -20,7 +24,7 @@ class SubstepLevel {
   // frame from how fast its bodies move (CollisionSystem::motion_halvings); at most the deepest
   // start.
   explicit SubstepLevel(int max_halvings, int floor = 0)
-      : deepest_start_(std::max(0, max_halvings - 1)), floor_(std::clamp(floor, 0, deepest_start_)), start_(floor_) {}
+      : deepest_start_(std::max(0, max_halvings)), floor_(std::clamp(floor, 0, deepest_start_)), start_(floor_) {}
   // Halvings the next substep starts at: it is taken as 2^start() pieces.
   int start() const { return start_; }
   // The substep just taken: `deepest` is the deepest halving one of its pieces needed
