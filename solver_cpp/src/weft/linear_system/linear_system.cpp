@@ -1,8 +1,8 @@
-#include <stdexcept>
 #include "weft/linear_system/linear_system.h"
 
 #include <Eigen/IterativeLinearSolvers>
 #include <algorithm>
+#include <stdexcept>
 
 #include "weft/common/timer.h"
 #include "weft/linear_system/rcm.h"
