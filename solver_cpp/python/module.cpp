@@ -91,6 +91,7 @@ PYBIND11_MODULE(_solver, m) {
       .def_readonly("max_edge_strain", &FrameTelemetry::max_edge_strain)
       .def_readonly("subdivided_substeps", &FrameTelemetry::subdivided_substeps)
       .def_readonly("motion_halvings", &FrameTelemetry::motion_halvings)
+      .def_readonly("threads", &FrameTelemetry::threads)
       .def_readonly("setup_seconds", &FrameTelemetry::setup_seconds);
 
   py::class_<Energies>(m, "Energies")
@@ -105,6 +106,9 @@ PYBIND11_MODULE(_solver, m) {
            py::arg("substeps"), py::call_guard<py::gil_scoped_release>())
       .def("set_body_keyframes", &Simulation::set_body_keyframes, py::arg("body"), py::arg("frame_start"),
            py::arg("frame_end"))
+      .def_property(
+          "threads", [](const Simulation& s) { return s.settings().threads; }, &Simulation::set_threads,
+          "threads of the coming frames (at least 1); results are bitwise the same for any count")
       .def("release_pins", &Simulation::release_pins, py::arg("vertices"))
       .def("set_pin_targets", &Simulation::set_pin_targets, py::arg("vertices"), py::arg("frame_start"),
            py::arg("frame_end"))

@@ -87,6 +87,13 @@ class CollisionSystem::Filter : public ContactFilter {
   const CollisionSystem& s_;
 };
 
+void CollisionSystem::set_threads(int threads) {
+  threads_ = std::max(threads, 1);
+  detection_.set_threads(threads_);
+  ccd_.set_threads(threads_);
+  if (pinch_) pinch_->set_threads(threads_);
+}
+
 void CollisionSystem::release_pins(const std::vector<int>& vertices, const std::vector<double>& vertex_mass) {
   for (int vertex : vertices) props_.inverse_mass[vertex] = 1.0 / vertex_mass[vertex];
 }

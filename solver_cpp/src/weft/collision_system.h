@@ -48,6 +48,9 @@ class CollisionSystem {
                   const std::vector<std::array<double, 3>>& face_rest_lengths = {});
   ~CollisionSystem();
 
+  // Threads of the coming steps (at least 1); the results are the same for any count.
+  void set_threads(int threads);
+
   // Released pins get their mass back: they take impulses like any cloth vertex.
   void release_pins(const std::vector<int>& vertices, const std::vector<double>& vertex_mass);
 

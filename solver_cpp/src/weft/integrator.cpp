@@ -115,6 +115,13 @@ Simulation::Simulation(const SimulationSetup& s)
   }
 }
 
+void Simulation::set_threads(int threads) {
+  if (threads < 1) throw std::invalid_argument("solver.threads must be at least 1");
+  settings_.threads = threads;
+  linear_->set_threads(threads);
+  if (collisions_) collisions_->set_threads(threads);
+}
+
 void Simulation::set_body_keyframes(int body, const Positions& frame_start, const Positions& frame_end) {
   if (body < 0 || body >= body_count()) throw std::invalid_argument("body " + std::to_string(body) + " out of range");
   bodies_[body].set_keyframes(frame_start, frame_end);
@@ -313,6 +320,7 @@ FrameTelemetry Simulation::advance_frame(double frame_start_time, double frame_d
   if (substeps < 1) throw std::invalid_argument("substeps must be at least 1");
   if (!(frame_duration > 0.0)) throw std::invalid_argument("frame duration must be positive");
   FrameTelemetry telemetry;
+  telemetry.threads = settings_.threads;
   const Timer frame_timer;
   const double h = frame_duration / substeps;
   if (collisions_) collisions_->begin_frame();

@@ -69,6 +69,7 @@ struct FrameTelemetry {
   int substeps = 0;               // implicit steps taken (more than asked when halved)
   int subdivided_substeps = 0;    // steps redone as two halves (adaptive substepping)
   int motion_halvings = 0;        // halvings every substep started at for the bodies' motion (body_motion.h)
+  int threads = 0;                // threads the frame ran on (settings().threads)
   int unconverged_substeps = 0;
   double kinetic_energy = 0.0;
   double potential_energy = 0.0;  // gravity + elastic
@@ -98,6 +99,10 @@ class Simulation {
   // from their frame-start to frame-end keyframes across the frame.
   FrameTelemetry advance_frame(double frame_start_time, double frame_duration, int substeps);
   void set_body_keyframes(int body, const Positions& frame_start, const Positions& frame_end);
+  // Threads of the coming frames (at least 1; settings().threads). Every result is bitwise the
+  // same for any count, so a run may change it between frames (weft/thread_governor.py does
+  // when other processes want the cores).
+  void set_threads(int threads);
 
   const Positions& positions() const { return x_; }
   const Positions& velocities() const { return v_; }

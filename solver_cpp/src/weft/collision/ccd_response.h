@@ -21,6 +21,7 @@ constexpr double kCcdHitTimeResolution = 1.0 / 16.0;
 class CcdResponse {
  public:
   explicit CcdResponse(int threads = 1) : threads_(threads) {}
+  void set_threads(int threads) { threads_ = threads; }
   // CCD over step.pairs (in parallel); with apply, impulses are applied to the hits in pair
   // order, each re-tested with the velocities of the moment if an earlier impulse of the pass
   // moved one of its points. A hit that its impulse at the reported time would not change (it

@@ -97,6 +97,7 @@ class BodyPinchTracker {
 
   const std::vector<BodyPairPinch>& pairs() const { return pairs_; }
   int active_pairs() const;
+  void set_threads(int threads) { threads_ = threads; }
 
   // Per cloth face: 1 when its box overlaps the region (grown by `margin`) of a non-free pair
   // in which body `body` gives way (gives_way), else 0. Boxes are the broad phase's swept cloth boxes. only: per pair,

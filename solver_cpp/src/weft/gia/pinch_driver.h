@@ -51,6 +51,7 @@ class PinchDriver {
   void grip(int p, const Faces& faces, const Positions& start, const Positions& end, CollisionStep& step,
             CollisionTelemetry& frame) const;
   const BodyPinchTracker& tracker() const { return tracker_; }
+  void set_threads(int threads) { tracker_.set_threads(threads); }
   // Engaged pairs after the last update: the collision stage hands contact to GIA meanwhile.
   int engaged_pairs() const { return engaged_count_; }
   // Of those, the pairs of parts of one character.

@@ -49,6 +49,7 @@ class FastLinearSystem final : public LinearSystemPath {
     multigrid_stale_ = true;
     auto_switched_ = false;
   }
+  void set_threads(int threads) override { options_.threads = threads; }
   LinearSystemInfo info() const override;
 
   const BcrsMatrix<Scalar>& matrix() const { return matrix_; }

@@ -59,6 +59,7 @@ class ReferenceLinearSystem final : public LinearSystemPath {
   PcgStats solve(const ConstraintFilter& filter, VectorX& dv) override;
   PcgStats solve_response(const VectorX& rhs, VectorX& y, const PcgSettings& pcg) override;
   void residual(const VectorX& dv, VectorX& r) const override { r = assembler_.rhs() - assembler_.matrix() * dv; }
+  void set_threads(int threads) override { options_.threads = threads; }
   LinearSystemInfo info() const override;
   const ReferenceAssembler& assembler() const { return assembler_; }
 

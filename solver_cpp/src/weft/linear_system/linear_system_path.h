@@ -81,6 +81,9 @@ class LinearSystemPath {
   virtual void start_frame() {}
   // Transient elements of the coming build() (cleared by the caller); null when unsupported.
   virtual TransientElements* transient() { return nullptr; }
+  // Threads of the coming builds and solves (at least 1). Every result is the same for any
+  // count, so a run may change it between frames.
+  virtual void set_threads(int threads) = 0;
   virtual LinearSystemInfo info() const = 0;
 };
 
