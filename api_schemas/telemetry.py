@@ -96,6 +96,12 @@ class FrameTelemetry(BaseModel):
     friction_spreads: int = Field(
         0, description="substeps whose kinetic friction lengthened an edge past the strain limit when applied to "
                        "the held vertices alone, and went through the cloth's implicit response instead")
+    # The solver threads giving way to other processes (weft/thread_governor.py); appended.
+    threads: int = Field(0, description="solver threads the frame ran on (0: not recorded)")
+    cpu_wait_share: float = Field(
+        0.0, description="seconds the process's threads waited for a CPU while runnable, per solver thread and "
+                         "second of the frame (0: idle cores or not measured; above 0.25 the next frames run on "
+                         "fewer threads)")
 
 
 _DTYPES = {int: "i4", float: "f8"}

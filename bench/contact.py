@@ -142,22 +142,24 @@ def run_weft(scene: Any, frames: int, threads: int) -> dict[str, Any]:
     for a builder that sets its length) keeping every frame's positions in memory; stops at a
     solver failure."""
     from weft.simulate import SolverFailure, advance, new_simulation, telemetry_row
+    from weft.thread_governor import ThreadGovernor
 
     frames = min(frames, scene.frame_count)
     shot = scene.shot
     start = time.perf_counter()
     sim = new_simulation(scene, threads)
+    governor = ThreadGovernor(sim, threads)
     setup = time.perf_counter() - start
     positions, seconds, telemetry, failure = [np.array(sim.positions)], [], [], None
     for index in range(1, frames):
         start = time.perf_counter()
         try:
-            t = advance(sim, scene, index)
+            t = advance(sim, scene, index, governor)
         except SolverFailure as exc:
             failure = str(exc)
             break
         seconds.append(time.perf_counter() - start)
-        telemetry.append(telemetry_row(shot.frame_range[0] + index, t))
+        telemetry.append(telemetry_row(shot.frame_range[0] + index, t, governor))
         positions.append(np.array(sim.positions))
     return {"positions": np.stack(positions), "frame_seconds": np.asarray(seconds), "setup_seconds": setup,
             "telemetry": telemetry, "failure": failure}

@@ -53,19 +53,21 @@ def resolve(shot_path: Path) -> Any:
 def run_here(scene: Any, threads: int = 2) -> Run:
     """Simulates the whole shot in this process."""
     from weft.simulate import SolverFailure, advance, initial_telemetry, new_simulation, telemetry_row
+    from weft.thread_governor import ThreadGovernor
 
     start = time.perf_counter()
     sim = new_simulation(scene, threads)
+    governor = ThreadGovernor(sim, threads)
     first = initial_telemetry(scene.shot.frame_range[0], sim)
     energy = [first.kinetic_energy + first.potential_energy]
     positions, rows, failure = [np.array(sim.positions)], [], None
     for index in range(1, scene.shot.frame_count):
         try:
-            t = advance(sim, scene, index)
+            t = advance(sim, scene, index, governor)
         except SolverFailure as exc:
             failure = f"frame {exc.frame}: {exc.reason}"
             break
-        rows.append(telemetry_row(scene.shot.frame_range[0] + index, t).model_dump())
+        rows.append(telemetry_row(scene.shot.frame_range[0] + index, t, governor).model_dump())
         energy.append(rows[-1]["kinetic_energy"] + rows[-1]["potential_energy"])
         positions.append(np.array(sim.positions))
     columns = {k: np.array([r[k] for r in rows]) for k in (rows[0] if rows else {})}

@@ -433,4 +433,10 @@ def describe_cache(path: str | Path) -> dict[str, Any]:
                 summary["mean_collision_counts_per_frame"] = counts
             if "max_edge_strain" in names:
                 summary["max_edge_strain"] = float(np.max(simulated["max_edge_strain"]))
+            # The threads each frame ran on: fewer than the run's where other processes wanted
+            # the cores (weft/thread_governor.py; columns of older caches may be missing).
+            if "threads" in names and np.all(simulated["threads"] > 0):
+                summary["solver_threads"] = {
+                    "fewest": int(np.min(simulated["threads"])), "most": int(np.max(simulated["threads"])),
+                    "max_cpu_wait_share": float(np.max(simulated["cpu_wait_share"]))}
         return summary

@@ -18,6 +18,7 @@ from weft import __version__
 from weft.cache import CacheWriter
 from weft.simulate import (SolverFailure, advance, initial_telemetry, new_simulation, solver_threads,
                            telemetry_row)
+from weft.thread_governor import ThreadGovernor
 from weft.solver_setup import Scene
 
 __all__ = ["FrameRecord", "RunSummary", "ShotRunner", "SolverFailure"]
@@ -83,6 +84,7 @@ class ShotRunner:
         shot = scene.shot
         start_wall = time.perf_counter()
         sim = new_simulation(scene, self.threads_used)
+        governor = ThreadGovernor(sim, self.threads_used)
         resumed_from: int | None = None
         if self.resume and self.cache_path.exists():
             writer, state = CacheWriter.resume(self.cache_path, scene.shot_hash)
@@ -106,7 +108,7 @@ class ShotRunner:
                 if index == 0:
                     telemetry = initial_telemetry(frame, sim)
                 else:
-                    telemetry = telemetry_row(frame, advance(sim, scene, index))
+                    telemetry = telemetry_row(frame, advance(sim, scene, index, governor), governor)
                 write_start = time.perf_counter()
                 writer.append(frame, sim.positions, sim.velocities, sim.warm_start, telemetry,
                               [body.frames[index] for body in scene.bodies], sim.contact_flags, sim.collision_flags)

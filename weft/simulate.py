@@ -11,12 +11,14 @@ from __future__ import annotations
 
 import os
 from collections.abc import Iterator
+from contextlib import nullcontext
 from typing import Any
 
 import numpy as np
 
 from api_schemas import FrameTelemetry
 from weft.solver_setup import Scene, build_setup
+from weft.thread_governor import ThreadGovernor
 
 
 class SolverFailure(RuntimeError):
@@ -49,10 +51,11 @@ def new_simulation(scene: Scene, threads: int = 1, linear_system: str | None = N
     return _solver.Simulation(build_setup(scene, threads, linear_system))
 
 
-def advance(sim: Any, scene: Scene, index: int) -> Any:
+def advance(sim: Any, scene: Scene, index: int, governor: ThreadGovernor | None = None) -> Any:
     """Simulate frame ``index`` (1 .. frame_count - 1); returns the solver's FrameTelemetry.
     Raises SolverFailure (with the frame number) when the solver diverges or leaves non-finite
-    positions."""
+    positions. With a ``governor`` (made for ``sim``) the frame's CPU wait chooses the next
+    frame's threads (weft/thread_governor.py)."""
     from weft import _solver
 
     shot = scene.shot
@@ -69,7 +72,8 @@ def advance(sim: Any, scene: Scene, index: int) -> Any:
         if not let_go.intersection(vertices.tolist()):
             sim.set_pin_targets(vertices.tolist(), path[index - 1], path[index])
     try:
-        t = sim.advance_frame((index - 1) * dt, dt, shot.substeps)
+        with governor.frame() if governor is not None else nullcontext():
+            t = sim.advance_frame((index - 1) * dt, dt, shot.substeps)
     except _solver.SolverDivergence as exc:
         raise SolverFailure(frame, str(exc)) from None
     if not np.isfinite(sim.positions).all():
@@ -80,20 +84,25 @@ def advance(sim: Any, scene: Scene, index: int) -> Any:
 def simulate(scene: Scene, sim: Any = None, threads: int = 1, start: int = 1,
              stop: int | None = None) -> Iterator[tuple[int, Any, Any]]:
     """Yields (frame index, simulation, solver telemetry) for frames start .. stop - 1 (default:
-    every simulated frame of the shot). A new Simulation is made unless ``sim`` is given."""
+    every simulated frame of the shot). A new Simulation is made unless ``sim`` is given; its
+    threads give way to other processes (`ThreadGovernor`)."""
     sim = new_simulation(scene, threads) if sim is None else sim
+    governor = ThreadGovernor(sim, sim.threads)
     for index in range(start, scene.frame_count if stop is None else stop):
-        yield index, sim, advance(sim, scene, index)
+        yield index, sim, advance(sim, scene, index, governor)
 
 
-def telemetry_row(frame: int, t: Any) -> FrameTelemetry:
+def telemetry_row(frame: int, t: Any, governor: ThreadGovernor | None = None) -> FrameTelemetry:
     """The schema's row for a simulated frame, read field by field from the solver's record. A
     figure the schema gives a default for and the record lacks (an older build of the solver,
-    as `bench.module_ab` loads) takes that default; a required one must be there."""
+    as `bench.module_ab` loads) takes that default; a required one must be there. The CPU wait
+    is the frame's ``governor``'s (the schema's default without one)."""
     fields = FrameTelemetry.model_fields
-    return FrameTelemetry(frame=frame, **{
-        k: getattr(t, k) if info.is_required() or hasattr(t, k) else info.default
-        for k, info in fields.items() if k != "frame"})
+    values = {k: getattr(t, k) if info.is_required() or hasattr(t, k) else info.default
+              for k, info in fields.items() if k not in {"frame", "cpu_wait_share"}}
+    if governor is not None and governor.last is not None:
+        values["cpu_wait_share"] = governor.last.cpu_wait_share
+    return FrameTelemetry(frame=frame, **values)
 
 
 def initial_telemetry(frame: int, sim: Any) -> FrameTelemetry:

@@ -163,6 +163,10 @@ def _print_summary(cache: Path, wall_seconds: float) -> None:
         table.add_row("CG iterations/frame", f"{info['cg_iterations_per_frame']:.1f}")
         table.add_row("unconverged substeps", str(info["unconverged_substeps"]))
         table.add_row("substeps", _substeps_line(info))
+    threads = info.get("solver_threads")
+    if threads and threads["fewest"] < threads["most"]:
+        table.add_row("threads", f"{threads['fewest']}-{threads['most']}: fewer while other processes wanted the "
+                                 f"cores (CPU wait up to {threads['max_cpu_wait_share']:.2f} per thread-second)")
     table.add_row("wall time", f"{wall_seconds:.2f} s")
     out.print(table)
 
