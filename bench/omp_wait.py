@@ -8,13 +8,16 @@ another process wants the core, a spinning thread takes it from the very thread 
 This bench runs contact scenes with several spin counts, first alone and then beside `--busy`
 processes that each keep one core busy (plain Python loops, started and stopped here), each run
 in a process of its own (libgomp reads the variable once, when it loads), the spin counts
-alternating within each repeat:
+alternating within each repeat, with weft's thread governor on (threads give way to the busy
+processes after a frame: weft/thread_governor.py) or off (`WEFT_THREAD_GOVERNOR=off`):
 
     python -m bench.omp_wait [--scenes drape_sphere,articulated_dress,sleeve_swing]
-        [--spins 0,1000,2000,5000,20000] [--busy 0,1] [--threads 2] [--repeat 2] [--json PATH]
+        [--spins 0,1000,5000,10000,30000] [--busy 0,1] [--governor on,off] [--threads 2]
+        [--repeat 2] [--json PATH]
 
-It prints the median seconds per frame of every scene, load and spin count, and its ratio to
-weft's default (`weft.OPENMP_SPIN_COUNT`) under the same load: below 1 is faster than the default.
+It prints the median seconds per frame of every scene, load, spin count and governor setting,
+and its ratio to weft's default (`weft.OPENMP_SPIN_COUNT`, governor on) under the same load:
+below 1 is faster than the default.
 """
 
 from __future__ import annotations
@@ -32,7 +35,7 @@ from pathlib import Path
 from typing import Any
 
 DEFAULT_SCENES = ("drape_sphere", "articulated_dress", "sleeve_swing")
-DEFAULT_SPINS = (0, 1000, 2000, 5000, 20000)
+DEFAULT_SPINS = (0, 1000, 5000, 10000, 30000)
 
 
 def default_spin_count() -> int:
@@ -58,10 +61,11 @@ def busy_processes(count: int) -> Iterator[list[subprocess.Popen[bytes]]]:
             process.wait()
 
 
-def run_scene(scene: str, spin: int, threads: int, frames: int) -> dict[str, Any]:
-    """One run of `scene` in a process of its own with GOMP_SPINCOUNT=spin: bench.module_ab's
-    child figures (s_per_frame, cpu_per_frame, the step breakdown)."""
-    env = dict(os.environ, GOMP_SPINCOUNT=str(spin), OMP_WAIT_POLICY="PASSIVE")
+def run_scene(scene: str, spin: int, threads: int, frames: int, governor: str = "on") -> dict[str, Any]:
+    """One run of `scene` in a process of its own with GOMP_SPINCOUNT=spin and the thread
+    governor `governor` ("on" or "off"): bench.module_ab's child figures (s_per_frame,
+    cpu_per_frame, the step breakdown)."""
+    env = dict(os.environ, GOMP_SPINCOUNT=str(spin), OMP_WAIT_POLICY="PASSIVE", WEFT_THREAD_GOVERNOR=governor)
     command = [sys.executable, "-m", "bench.module_ab", "--scene", scene, "--threads", str(threads),
                "--frames", str(frames), "--child", "installed", ""]
     done = subprocess.run(command, capture_output=True, text=True, env=env)
@@ -72,18 +76,19 @@ def run_scene(scene: str, spin: int, threads: int, frames: int) -> dict[str, Any
 
 
 def summarize(runs: list[dict[str, Any]], default_spin: int) -> list[dict[str, Any]]:
-    """Per (scene, busy, spin), in first-seen order: the runs' seconds per frame, their median and
-    the median's ratio to the default spin count's under the same scene and load (None where
-    the default was not run)."""
-    groups: dict[tuple[str, int, int], list[float]] = {}
+    """Per (scene, busy, spin, governor), in first-seen order: the runs' seconds per frame, their
+    median and the median's ratio to the default spin count's with the governor on under the
+    same scene and load (None where that was not run)."""
+    groups: dict[tuple[str, int, int, str], list[float]] = {}
     for run in runs:
-        groups.setdefault((run["scene"], run["busy"], run["spin"]), []).append(run["s_per_frame"])
+        key = (run["scene"], run["busy"], run["spin"], run.get("governor", "on"))
+        groups.setdefault(key, []).append(run["s_per_frame"])
     rows = []
-    for (scene, busy, spin), seconds in groups.items():
+    for (scene, busy, spin, governor), seconds in groups.items():
         median = statistics.median(seconds)
-        reference = groups.get((scene, busy, default_spin))
+        reference = groups.get((scene, busy, default_spin, "on"))
         ratio = median / statistics.median(reference) if reference else None
-        rows.append({"scene": scene, "busy": busy, "spin": spin, "s_per_frame": seconds,
+        rows.append({"scene": scene, "busy": busy, "spin": spin, "governor": governor, "s_per_frame": seconds,
                      "median": median, "ratio_to_default": ratio})
     return rows
 
@@ -93,13 +98,13 @@ def print_table(rows: list[dict[str, Any]], default_spin: int, threads: int, cor
     from rich.table import Table
 
     table = Table(title=f"OpenMP spin before sleeping: s/frame on {threads} thread(s), {cores} core(s); "
-                        f"ratio = median / median at weft's default ({default_spin}) under the same load")
-    for column in ("scene", "busy processes", "GOMP_SPINCOUNT", "s/frame (median)", "runs", "ratio"):
+                        f"ratio = median / median at weft's default ({default_spin}, governor on) under the same load")
+    for column in ("scene", "busy processes", "GOMP_SPINCOUNT", "governor", "s/frame (median)", "runs", "ratio"):
         table.add_column(column)
-    for row in sorted(rows, key=lambda r: (r["scene"], r["busy"], r["spin"])):
+    for row in sorted(rows, key=lambda r: (r["scene"], r["busy"], r["spin"], r["governor"])):
         ratio = row["ratio_to_default"]
         table.add_row(row["scene"], str(row["busy"]), f"{row['spin']:,}" + (" (default)" if row["spin"] == default_spin
-                                                                              else ""),
+                                                                              else ""), row["governor"],
                       f"{row['median']:.4f}", " ".join(f"{s:.4f}" for s in row["s_per_frame"]),
                       "-" if ratio is None else f"{ratio:.2f}")
     Console(width=160).print(table)
@@ -124,6 +129,7 @@ def main(argv: list[str] | None = None) -> int:
                         help="contact scenes or sheet:N (weft bench solver's N x N sheet), comma-separated")
     parser.add_argument("--spins", default=",".join(map(str, DEFAULT_SPINS)), help="GOMP_SPINCOUNT values")
     parser.add_argument("--busy", default="0,1", help="numbers of busy competing processes, one pass each")
+    parser.add_argument("--governor", default="on", help="thread governor settings, comma-separated: on, off")
     parser.add_argument("--threads", type=int, default=2)
     parser.add_argument("--frames", type=int, default=0, help="frames, the initial one included (default: per scene)")
     parser.add_argument("--repeat", type=int, default=2, help="runs per scene, load and spin count")
@@ -135,6 +141,9 @@ def main(argv: list[str] | None = None) -> int:
         parser.error(f"--scenes: unknown scene(s) {unknown}; choose from {list(SCENES)} or sheet:N")
     spins = parse_ints(args.spins, "--spins", parser.error)
     busy_levels = parse_ints(args.busy, "--busy", parser.error)
+    governors = [g for g in args.governor.split(",") if g]
+    if not governors or any(g not in ("on", "off") for g in governors):
+        parser.error(f"--governor {args.governor!r}: expected on, off or on,off")
     if args.threads < 1 or args.repeat < 1 or args.frames < 0 or args.frames == 1:
         parser.error("--threads and --repeat must be at least 1, --frames 0 (per scene) or at least 2")
     default_spin = default_spin_count()
@@ -144,10 +153,12 @@ def main(argv: list[str] | None = None) -> int:
             for repeat in range(args.repeat):
                 for scene in scenes:
                     for spin in spins:
-                        figures = run_scene(scene, spin, args.threads, args.frames)
-                        runs.append({"scene": scene, "busy": busy, "spin": spin, "repeat": repeat, **figures})
-                        print(f"{scene} busy={busy} spin={spin} run {repeat + 1}: "
-                              f"{figures['s_per_frame']:.4f} s/frame", file=sys.stderr)
+                        for governor in governors:
+                            figures = run_scene(scene, spin, args.threads, args.frames, governor)
+                            runs.append({"scene": scene, "busy": busy, "spin": spin, "governor": governor,
+                                         "repeat": repeat, **figures})
+                            print(f"{scene} busy={busy} spin={spin} governor={governor} run {repeat + 1}: "
+                                  f"{figures['s_per_frame']:.4f} s/frame", file=sys.stderr)
     rows = summarize(runs, default_spin)
     print_table(rows, default_spin, args.threads, os.cpu_count())
     if args.json:

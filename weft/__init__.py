@@ -7,19 +7,20 @@ try:
 except PackageNotFoundError:  # running from a source tree without an install
     __version__ = "0.0.0+source"
 
-# OpenMP threads that wait at a barrier sleep instead of spinning unless the user chose
-# otherwise. The solver's CG has three barriers per iteration; on a machine shared with other
-# jobs (farm nodes, CI) spinning threads steal the core from the very thread they wait for and a
-# solve can take 10-30x longer. Read once, when weft._solver (libgomp) is first loaded.
+# OpenMP threads that wait at a barrier spin a while, then sleep, unless the user chose
+# otherwise. Read once, when weft._solver (libgomp) is first loaded.
 import os as _os
 
 _os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
-# ...after a short spin: with PASSIVE alone libgomp spins 0 times and every barrier is a futex
-# wake-up (tens of microseconds); on 2 threads the 4k-vertex drape and the 10k sheet then ran
-# 2.2-2.3x slower than with a spin. But a spinning thread also holds its core while a process
-# beside weft wants it: with one busy process on a 2-core machine, 20,000 spins (this default
-# until 2026-11-27) made the dress 4x and the drape 6x slower than no spin at all. 1,000 spins
-# cost nothing measurable when the machine is idle and a quarter to a third of 20,000's time
-# when it is not (`python -m bench.omp_wait`, docs/linear-system.md).
-OPENMP_SPIN_COUNT = 1000
+# The spin: with PASSIVE alone libgomp spins 0 times and every barrier is a futex wake-up; the
+# drape then ran 2.1x slower on 2 threads than with a spin. The solver opens about 360 parallel
+# regions per substep, and a spin that outlasts the serial gaps between them saves most of the
+# wake-ups: on an idle 2-core machine 10,000 spins (about 0.1 ms here) ran the 4k-vertex drape
+# and the standing dress 0.83x and 0.88x the time of 1,000 (the default from 2026-11-27 to
+# 2026-12-08). A spinning thread also holds its core while a process beside weft wants it:
+# beside one busy process 10,000 spins made both 2.3-2.5x slower than 1,000. The thread
+# governor (weft/thread_governor.py) bounds that to a frame: from the next one a contended run
+# steps down to fewer threads, which wait for nothing (`python -m bench.omp_wait`,
+# docs/linear-system.md).
+OPENMP_SPIN_COUNT = 10000
 _os.environ.setdefault("GOMP_SPINCOUNT", str(OPENMP_SPIN_COUNT))

@@ -35,8 +35,12 @@ def test_medians_and_ratios_to_the_default_under_the_same_load() -> None:
         {"scene": "a", "busy": 1, "spin": 100, "s_per_frame": 10.0},
         {"scene": "a", "busy": 1, "spin": 0, "s_per_frame": 5.0},
         {"scene": "b", "busy": 0, "spin": 0, "s_per_frame": 1.0},  # the default was not run here
+        {"scene": "a", "busy": 1, "spin": 100, "governor": "off", "s_per_frame": 30.0},
     ]
-    rows = {(r["scene"], r["busy"], r["spin"]): r for r in summarize(runs, default_spin=100)}
+    summary = summarize(runs, default_spin=100)
+    off = next(r for r in summary if r["governor"] == "off")
+    assert off["median"] == 30.0 and off["ratio_to_default"] == 3.0  # against the governor on
+    rows = {(r["scene"], r["busy"], r["spin"]): r for r in summary if r["governor"] == "on"}
     assert rows[("a", 0, 100)]["median"] == 3.0 and rows[("a", 0, 100)]["ratio_to_default"] == 1.0
     assert rows[("a", 0, 0)]["ratio_to_default"] == 2.0
     assert rows[("a", 1, 0)]["ratio_to_default"] == 0.5  # compared with the default under its own load
@@ -86,6 +90,7 @@ def test_a_short_run_reports_every_scene_load_and_spin(tmp_path: Path) -> None:
     (["--busy", ""], "--busy"),
     (["--threads", "0"], "--threads"),
     (["--frames", "1"], "--frames"),
+    (["--governor", "maybe"], "--governor"),
 ])
 def test_bad_arguments_are_named(argv: list[str], message: str, capsys: pytest.CaptureFixture[str]) -> None:
     with pytest.raises(SystemExit) as exit_info:
