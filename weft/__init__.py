@@ -16,11 +16,11 @@ _os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 # drape then ran 2.1x slower on 2 threads than with a spin. The solver opens about 360 parallel
 # regions per substep, and a spin that outlasts the serial gaps between them saves most of the
 # wake-ups: on an idle 2-core machine 10,000 spins (about 0.1 ms here) ran the 4k-vertex drape
-# and the standing dress 0.83x and 0.88x the time of 1,000 (the default from 2026-11-27 to
+# and the standing dress in 0.78x and 0.86x the time of 1,000 (the default from 2026-11-27 to
 # 2026-12-08). A spinning thread also holds its core while a process beside weft wants it:
-# beside one busy process 10,000 spins made both 2.3-2.5x slower than 1,000. The thread
-# governor (weft/thread_governor.py) bounds that to a frame: from the next one a contended run
-# steps down to fewer threads, which wait for nothing (`python -m bench.omp_wait`,
-# docs/linear-system.md).
+# beside one busy process 10,000 spins alone made both 2.4-2.5x slower than 1,000. The thread
+# governor (weft/thread_governor.py) bounds that to a couple of frames: then a crowded run steps
+# down to fewer threads, which wait for nothing, and runs 0.89-0.94x the old default's time
+# (`python -m bench.omp_wait`, docs/linear-system.md).
 OPENMP_SPIN_COUNT = 10000
 _os.environ.setdefault("GOMP_SPINCOUNT", str(OPENMP_SPIN_COUNT))
