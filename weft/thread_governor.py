@@ -81,7 +81,8 @@ class ThreadGovernor:
     """Chooses the solver threads frame by frame for a Simulation (`sim.threads`) asked to run on
     `requested` threads. Wrap each frame's solver call in `frame()`; `last` says what it saw.
     The CPU wait is measured wherever the kernel reports it; the threads change only when
-    `adapting` (more than one requested, not switched off)."""
+    `adapting` (more than one requested, not switched off, and a solver build whose Simulation
+    has `threads`: `bench.module_ab` loads older ones)."""
 
     def __init__(self, sim: Any, requested: int, enabled: bool | None = None) -> None:
         if requested < 1:
@@ -89,19 +90,22 @@ class ThreadGovernor:
         self.sim = sim
         self.requested = requested
         self.measuring = cpu_wait_seconds() is not None
-        self.adapting = self.measuring and requested > 1 and (governor_enabled() if enabled is None else enabled)
+        settable = hasattr(type(sim), "threads")
+        self.adapting = (self.measuring and settable and requested > 1
+                         and (governor_enabled() if enabled is None else enabled))
+        self.threads = requested  # what the frames run on while it cannot be read back
         self.probe_interval = FIRST_PROBE
         self.frames_since_change = 0
         self.contended_frames = 0  # frames in a row above CONTENDED_SHARE
         self.probing = False
         self.last: FrameThreads | None = None
-        if sim.threads != requested:
+        if settable and sim.threads != requested:
             sim.threads = requested
 
     @contextmanager
     def frame(self) -> Iterator[None]:
         """Measures the frame run inside the block and chooses the next frame's threads."""
-        threads = self.sim.threads
+        threads = self.sim.threads if self.adapting else self.threads
         wait_before = cpu_wait_seconds() if self.measuring else None
         start = time.perf_counter()
         yield
