@@ -4,6 +4,8 @@ processes that keep every core busy."""
 
 from __future__ import annotations
 
+import json
+import os
 import subprocess
 import sys
 import time
@@ -158,3 +160,18 @@ def test_a_crowded_run_records_its_threads_in_the_cache_and_weft_info(tmp_path: 
     info = describe_cache(tmp_path / "c.h5")
     assert info["solver_threads"]["fewest"] == 1 and info["solver_threads"]["most"] == 2
     assert info["solver_threads"]["max_cpu_wait_share"] == max(row.cpu_wait_share for row in summary.telemetry)
+
+
+@needs_schedstat
+@pytest.mark.skipif(frame_loop.usable_cpus() < 2, reason="a run on one CPU has one thread: nothing to give way")
+def test_weft_run_says_when_it_ran_on_fewer_threads(tmp_path: Path) -> None:
+    doc = drop_shot("sphere", n=48, frames=5, substeps=2)
+    doc["features"] = {"self_collision": True}
+    shot = tmp_path / "shot.json"
+    shot.write_text(json.dumps(doc))
+    with busy_processes(frame_loop.usable_cpus()):
+        done = subprocess.run([sys.executable, "-m", "weft.cli", "run", str(shot), "-o", str(tmp_path / "c.h5"),
+                               "--threads", "2"], capture_output=True, text=True, timeout=300,
+                              env={**os.environ, "COLUMNS": "200"})
+    assert done.returncode == 0, done.stderr
+    assert "1-2: fewer while other processes wanted the cores" in done.stdout, done.stdout
