@@ -108,15 +108,20 @@ Aabb ContactDetection::shifted_cloth_box(int f, const Vec3& shift) const {
 }
 
 bool ContactDetection::choose_sweep_frames(const CollisionStep& step) {
-  self_shift_ = any_self_ ? sweep_frame_.shift(*step.x, step.x_end, kCcdSeparationFraction * largest_margin_)
-                          : Vec3::Zero();
   // Each body's frame from its own vertices and the cloth near it (a SweepFrame of its own for
-  // scratch): the bodies in parallel, the same shifts for any thread count.
+  // scratch), and the cloth's own frame for its self pairs: in parallel (the last item is the
+  // cloth's), the same shifts for any thread count.
+  self_shift_ = Vec3::Zero();
   std::fill(body_shift_.begin(), body_shift_.end(), Vec3::Zero());
   body_sweep_frames_.resize(bodies_.size());
   const int count = static_cast<int>(colliding_.size());
-#pragma omp parallel for schedule(dynamic, 1) num_threads(threads_) if (threads_ > 1 && count > 1)
-  for (int i = 0; i < count; ++i) {
+  const int items = count + (any_self_ ? 1 : 0);
+#pragma omp parallel for schedule(dynamic, 1) num_threads(threads_) if (threads_ > 1 && items > 1)
+  for (int i = 0; i < items; ++i) {
+    if (i == count) {
+      self_shift_ = sweep_frame_.shift(*step.x, step.x_end, kCcdSeparationFraction * largest_margin_);
+      continue;
+    }
     const int b = colliding_[i];
     const Body& state = refit_body(b, step.body_start[b], step.body_end[b]);
     Aabb reach = state.tree.bounds();

@@ -206,12 +206,14 @@ int SelfCollisionCulling::cull_from_root(const AabbTree& tree, const Positions& 
   // Tests are run where test_ has no result (-1) and kept for update_changed(). Level by level,
   // the tests of one level in parallel: a node's test depends on its own faces only, so the
   // nodes tested and the culled ones are those of a depth-first walk, for any thread count.
+  // From two nodes on, one at a time: the top levels' few nodes are the largest patches, with
+  // the longest boundaries to test.
   std::fill(culled_.begin(), culled_.end(), 0);
   int culled = 0;
   frontier_.assign(1, 0);
   while (!frontier_.empty()) {
     const int count = static_cast<int>(frontier_.size());
-#pragma omp parallel for schedule(dynamic, 4) num_threads(threads) if (threads > 1 && count >= 16)
+#pragma omp parallel for schedule(dynamic, 1) num_threads(threads) if (threads > 1 && count >= 2)
     for (int i = 0; i < count; ++i) {
       const int n = frontier_[i];
       if (tree.leaf(n) >= 0 || test_[n] >= 0) continue;
