@@ -117,7 +117,8 @@ def test_one_thread_or_the_switch_keeps_the_threads(monkeypatch: pytest.MonkeyPa
 
 @contextmanager
 def busy_processes(count: int) -> Iterator[None]:
-    """`count` processes that each keep a core busy until the block ends."""
+    """`count` processes that each keep a core busy until the block ends (one more than the
+    CPUs, so that the solver's threads wait at least a third of the time on any machine)."""
     processes = [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(count)]
     try:
         time.sleep(0.5)  # let the scheduler see them
@@ -135,7 +136,7 @@ def test_beside_processes_that_keep_every_core_busy_a_run_gives_way_and_its_prob
     sim = frame_loop.new_simulation(scene, 2)
     governor = ThreadGovernor(sim, 2, enabled=True)
     rows = []
-    with busy_processes(frame_loop.usable_cpus()):
+    with busy_processes(frame_loop.usable_cpus() + 1):
         for index in range(1, scene.frame_count):
             t = frame_loop.advance(sim, scene, index, governor)
             rows.append(frame_loop.telemetry_row(index, t, governor))
@@ -152,7 +153,7 @@ def test_beside_processes_that_keep_every_core_busy_a_run_gives_way_and_its_prob
 @pytest.mark.skipif(frame_loop.usable_cpus() < 2, reason="a run on one CPU has one thread: nothing to give way")
 def test_a_crowded_run_records_its_threads_in_the_cache_and_weft_info(tmp_path: Path) -> None:
     scene = draping_sheet(frames=5)
-    with busy_processes(frame_loop.usable_cpus()):
+    with busy_processes(frame_loop.usable_cpus() + 1):
         summary = ShotRunner(scene, tmp_path / "c.h5", threads=2).run()
     threads = [row.threads for row in summary.telemetry[1:]]
     assert threads == [2, 2, 1, 1], threads
@@ -169,7 +170,7 @@ def test_weft_run_says_when_it_ran_on_fewer_threads(tmp_path: Path) -> None:
     doc["features"] = {"self_collision": True}
     shot = tmp_path / "shot.json"
     shot.write_text(json.dumps(doc))
-    with busy_processes(frame_loop.usable_cpus()):
+    with busy_processes(frame_loop.usable_cpus() + 1):
         done = subprocess.run([sys.executable, "-m", "weft.cli", "run", str(shot), "-o", str(tmp_path / "c.h5"),
                                "--threads", "2"], capture_output=True, text=True, timeout=300,
                               env={**os.environ, "COLUMNS": "200"})
