@@ -18,8 +18,8 @@ from weft import __version__
 from weft.cache import CacheWriter
 from weft.simulate import (SolverFailure, advance, initial_telemetry, new_simulation, solver_threads,
                            telemetry_row)
-from weft.thread_governor import ThreadGovernor
 from weft.solver_setup import Scene
+from weft.thread_governor import ThreadGovernor
 
 __all__ = ["FrameRecord", "RunSummary", "ShotRunner", "SolverFailure"]
 

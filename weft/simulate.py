@@ -87,7 +87,7 @@ def simulate(scene: Scene, sim: Any = None, threads: int = 1, start: int = 1,
     every simulated frame of the shot). A new Simulation is made unless ``sim`` is given; its
     threads give way to other processes (`ThreadGovernor`)."""
     sim = new_simulation(scene, threads) if sim is None else sim
-    governor = ThreadGovernor(sim, sim.threads)
+    governor = ThreadGovernor(sim, getattr(sim, "threads", threads))  # older builds lack it
     for index in range(start, scene.frame_count if stop is None else stop):
         yield index, sim, advance(sim, scene, index, governor)
 

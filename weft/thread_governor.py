@@ -6,7 +6,7 @@ parallel regions per substep). A thread that reaches one first spins a while
 machine a spin that outlasts the serial gaps between regions saves a futex wake-up per region,
 but beside a process that keeps a core busy a spinning thread takes the core from the very
 thread it waits for, and every region then waits for a time slice (docs/linear-system.md,
-"OpenMP's wait"). No spin count is right for both.
+"The thread governor"). No spin count is right for both.
 
 The governor watches each frame's CPU wait: how long the process's threads were runnable but
 not running (the kernel's run delay, the second field of `/proc/self/task/*/schedstat`), per
@@ -90,22 +90,21 @@ class ThreadGovernor:
         self.sim = sim
         self.requested = requested
         self.measuring = cpu_wait_seconds() is not None
-        settable = hasattr(type(sim), "threads")
-        self.adapting = (self.measuring and settable and requested > 1
+        self.settable = hasattr(type(sim), "threads")
+        self.adapting = (self.measuring and self.settable and requested > 1
                          and (governor_enabled() if enabled is None else enabled))
-        self.threads = requested  # what the frames run on while it cannot be read back
         self.probe_interval = FIRST_PROBE
         self.frames_since_change = 0
         self.contended_frames = 0  # frames in a row above CONTENDED_SHARE
         self.probing = False
         self.last: FrameThreads | None = None
-        if settable and sim.threads != requested:
+        if self.settable and sim.threads != requested:
             sim.threads = requested
 
     @contextmanager
     def frame(self) -> Iterator[None]:
         """Measures the frame run inside the block and chooses the next frame's threads."""
-        threads = self.sim.threads if self.adapting else self.threads
+        threads = self.sim.threads if self.settable else self.requested
         wait_before = cpu_wait_seconds() if self.measuring else None
         start = time.perf_counter()
         yield
