@@ -258,6 +258,9 @@ def run_scene(name: str, frames: int | None, threads: int, peer: str | None,
                    telemetry=weft_breakdown(weft_run["telemetry"]),
                    telemetry_frames=[t.model_dump() for t in weft_run["telemetry"]])
         row.update(frames_inside(row["per_frame"]["inside"], weft_run["telemetry"]))
+        # Frames the thread governor ran on fewer threads than asked (other processes crowded
+        # the cores: weft/thread_governor.py), over every repeat: their timings are not comparable.
+        row["frames_on_fewer_threads"] = sum(t.threads < threads for r in weft_runs for t in r["telemetry"])
         if repeat > 1:
             repeated_timing(row, [r["frame_seconds"] for r in weft_runs])
             # weft is deterministic: every repeat must give the first run's positions, bit for bit.
@@ -340,6 +343,8 @@ def format_tables(rows: list[dict[str, Any]]) -> list[Any]:
             note += f"; inside in {r['inside_frames']} frames, {r['inside_frames_unpinched']} unpinched"
         if r.get("repeats_identical") is False:
             note += "; REPEATS DIFFER"
+        if r.get("frames_on_fewer_threads"):
+            note += f"; {r['frames_on_fewer_threads']} frames on fewer threads (machine busy)"
         main.add_row(
             r["scene"], r["solver"], str(r["vertices"]), str(r["frames"]), _fmt(r["s_per_frame_mean"], ".3f"),
             _fmt(r["s_per_frame_max"], ".3f"), _ratio(r), f"{r['inside_max']}/{r['inside_final']}",

@@ -13,6 +13,7 @@ from bench.contact_metrics import BodyTrack, contact_metrics, edge_rest_lengths,
 from scenes.contact import SCENES, character_parts
 from scenes.collision import box_mesh
 from weft.shot import parse_shot
+from weft.simulate import usable_cpus
 from weft.solver_setup import resolve_scene
 
 TINY = {
@@ -161,6 +162,26 @@ def test_repeats_give_the_median_time_and_identical_positions() -> None:
     assert row["s_per_frame_mean"] == pytest.approx(float(np.median(runs)))
     assert row["s_per_frame_max"] >= max(runs)
     assert row["repeats_identical"] is True
+    assert row["frames_on_fewer_threads"] == 0  # one thread asked: the governor has none to take
+
+
+@pytest.mark.skipif(usable_cpus() < 2, reason="a run on one CPU has one thread: nothing to give way")
+def test_a_run_crowded_by_other_processes_says_so_in_its_row() -> None:
+    import io
+
+    from rich.console import Console
+
+    from bench.contact import format_tables, run_scene
+    from bench.omp_wait import busy_processes
+
+    with busy_processes(usable_cpus() + 1):
+        (row,) = run_scene("drape_sphere", 5, 2, None, scene_args={"n": 48})
+    assert row["frames_on_fewer_threads"] > 0
+    assert [t["threads"] for t in row["telemetry_frames"]][:2] == [2, 2]
+    console = Console(file=io.StringIO(), width=400)
+    for table in format_tables([row]):
+        console.print(table)
+    assert f"{row['frames_on_fewer_threads']} frames on fewer threads (machine busy)" in console.file.getvalue()
 
 
 def test_the_ratio_column_shows_the_range_over_repeats() -> None:

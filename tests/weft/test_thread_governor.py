@@ -8,14 +8,12 @@ import json
 import os
 import subprocess
 import sys
-import time
-from collections.abc import Iterator
-from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from bench.omp_wait import busy_processes
 from scenes.collision import drop_shot
 from weft import simulate as frame_loop
 from weft.cache import describe_cache
@@ -30,7 +28,8 @@ needs_schedstat = pytest.mark.skipif(cpu_wait_seconds() is None,
 
 def draping_sheet(frames: int) -> object:
     """48 x 48 vertices with self-collision on a sphere: every parallel part of the step splits its
-    work at this size (the solve's threads start at 2048 vertices)."""
+    work at this size (the solve's threads start at 2048 vertices). Runs beside busy processes
+    start one more of them than there are CPUs, so the solver's threads wait on any machine."""
     doc = drop_shot("sphere", n=48, frames=frames, substeps=2)
     doc["features"] = {"self_collision": True}
     return make_scene(doc)
@@ -113,21 +112,6 @@ def test_one_thread_or_the_switch_keeps_the_threads(monkeypatch: pytest.MonkeyPa
     monkeypatch.setenv("WEFT_THREAD_GOVERNOR", "off")
     sim.threads = 2
     assert not ThreadGovernor(sim, 2).adapting
-
-
-@contextmanager
-def busy_processes(count: int) -> Iterator[None]:
-    """`count` processes that each keep a core busy until the block ends (one more than the
-    CPUs, so that the solver's threads wait at least a third of the time on any machine)."""
-    processes = [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(count)]
-    try:
-        time.sleep(0.5)  # let the scheduler see them
-        yield
-    finally:
-        for process in processes:
-            process.kill()
-        for process in processes:
-            process.wait()
 
 
 @needs_schedstat
