@@ -49,6 +49,41 @@ TEST(SharpEdges, ACubesEdgesAreSharpForLongClothEdgesAndItsDiagonalsNever) {
   EXPECT_EQ(valleys.update(inward, cube.x, 100.0, 1.0), 0);
 }
 
+// Normals and sharpness are kept while the body stays where it was (a body at rest) and the
+// boxes while the sharp edges do too: every answer is a fresh object's, also after the body
+// moved away and back and the cloth's longest edge changed in between.
+TEST(SharpEdges, AnUnmovedBodyAnswersAsAFreshOneWhateverTheClothEdge) {
+  const Cube cube;
+  SharpEdges kept(cube.faces);
+  auto expect_fresh = [&](const Positions& x, double longest, int count) {
+    SharpEdges fresh(cube.faces);
+    ASSERT_EQ(fresh.update(cube.faces, x, longest, 1.0), count);
+    ASSERT_EQ(kept.update(cube.faces, x, longest, 1.0), count);
+    EXPECT_EQ(kept.sharpest(), fresh.sharpest());
+    for (int leaf = 0; leaf < count; ++leaf) {
+      EXPECT_EQ(kept.edge(leaf), fresh.edge(leaf));
+      EXPECT_EQ(kept.sharpness(leaf), fresh.sharpness(leaf));
+    }
+    if (count > 0) {
+      EXPECT_EQ(kept.tree().bounds().lo, fresh.tree().bounds().lo);
+      EXPECT_EQ(kept.tree().bounds().hi, fresh.tree().bounds().hi);
+    }
+  };
+  Positions moved = cube.x;
+  moved.col(0).array() += 1.0;
+  expect_fresh(cube.x, 1.5, 12);
+  expect_fresh(cube.x, 1.4, 0);
+  expect_fresh(cube.x, 1.5, 12);
+  expect_fresh(moved, 1.5, 12);  // refitted where it went
+  EXPECT_EQ(kept.tree().bounds().lo.x(), 1.0);
+  expect_fresh(cube.x, 1.5, 12);
+  EXPECT_EQ(kept.tree().bounds().lo.x(), 0.0);
+  // Standing still, nothing advances (least not below zero).
+  std::vector<std::array<int, 2>> out;
+  kept.advancing(cube.x, Positions(cube.x), 0.0, out);
+  EXPECT_TRUE(out.empty());
+}
+
 // A cube moved between update() and `end`: the edges that are not sharp and whose ends advance
 // along the edge's outward normal (its faces' normals summed) by more than the least asked
 // (here half the separation); moving away from an edge or along it never advances it.

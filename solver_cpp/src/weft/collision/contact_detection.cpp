@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <cstring>
 #include <limits>
 
 #include "weft/common/ordered_append.h"
@@ -135,11 +134,7 @@ bool ContactDetection::choose_sweep_frames(const CollisionStep& step) {
 }
 
 bool FittedAt::same(const Positions& start, const Positions& end) const {
-  auto equal = [](const Positions& a, const Positions& b) {
-    return a.rows() == b.rows() &&
-           std::memcmp(a.data(), b.data(), sizeof(double) * static_cast<size_t>(a.size())) == 0;
-  };
-  return valid_ && equal(start, start_) && equal(end, end_);
+  return valid_ && same_bits(start, start_) && same_bits(end, end_);
 }
 
 void FittedAt::set(const Positions& start, const Positions& end) {

@@ -35,41 +35,50 @@ bool SharpEdges::corner_cut(int leaf, const Vec3& on_edge, const Vec3& cloth_a, 
 
 int SharpEdges::update(const Faces& faces, const Positions& x, double longest_cloth_edge,
                        double smallest_separation) {
-  normals_.resize(faces.rows());
-  for (Eigen::Index f = 0; f < faces.rows(); ++f) {
-    const Vec3 a = row3(x, faces(f, 0));
-    const Vec3 n = (row3(x, faces(f, 1)) - a).cross(row3(x, faces(f, 2)) - a);
-    const double length = n.norm();
-    normals_[f] = length > 0.0 ? Vec3(n / length) : Vec3::Zero();
+  const bool moved = !same_bits(x, normals_at_);
+  if (moved) {
+    normals_.resize(faces.rows());
+    for (Eigen::Index f = 0; f < faces.rows(); ++f) {
+      const Vec3 a = row3(x, faces(f, 0));
+      const Vec3 n = (row3(x, faces(f, 1)) - a).cross(row3(x, faces(f, 2)) - a);
+      const double length = n.norm();
+      normals_[f] = length > 0.0 ? Vec3(n / length) : Vec3::Zero();
+    }
+    edge_sharpness_.assign(edges_.size(), 2.0);  // a border
+    convex_.assign(edges_.size(), 1);
+    for (size_t e = 0; e < edges_.size(); ++e) {
+      const auto [f0, f1] = faces_[e];
+      if (f1 < 0) continue;
+      // Convex when the far corner of the second face lies below the first face's plane.
+      convex_[e] = (row3(x, far_[e]) - row3(x, edges_[e][0])).dot(normals_[f0]) < 0.0;
+      if (convex_[e]) edge_sharpness_[e] = (normals_[f0] - normals_[f1]).norm();
+    }
+    normals_at_ = x;
   }
   std::vector<int> sharp;
   sharpness_.clear();
   sharpest_ = 0.0;
   for (size_t e = 0; e < edges_.size(); ++e) {
-    const auto [f0, f1] = faces_[e];
-    double sharpness = 2.0;  // a border
-    if (f1 >= 0) {
-      // Convex when the far corner of the second face lies below the first face's plane.
-      if ((row3(x, far_[e]) - row3(x, edges_[e][0])).dot(normals_[f0]) >= 0.0) continue;
-      sharpness = (normals_[f0] - normals_[f1]).norm();
-    }
-    if (!sharp_for(sharpness, longest_cloth_edge, smallest_separation)) continue;
+    if (!convex_[e] || !sharp_for(edge_sharpness_[e], longest_cloth_edge, smallest_separation)) continue;
     sharp.push_back(static_cast<int>(e));
-    sharpness_.push_back(sharpness);
-    sharpest_ = std::max(sharpest_, sharpness);
+    sharpness_.push_back(edge_sharpness_[e]);
+    sharpest_ = std::max(sharpest_, edge_sharpness_[e]);
   }
-  boxes_.resize(sharp.size());
-  for (size_t k = 0; k < sharp.size(); ++k) {
-    Aabb& box = boxes_[k];
-    box.lo = box.hi = row3(x, edges_[sharp[k]][0]);
-    box.expand(row3(x, edges_[sharp[k]][1]));
-  }
-  // The same edges as last time (a rigid part): the tree's boxes are refitted, not rebuilt.
-  if (!boxes_.empty()) {
-    if (sharp == sharp_ && !tree_.empty())
-      tree_.refit(boxes_);
-    else
-      tree_.build(boxes_);
+  // The same edges at the same positions: the same boxes and tree. The same edges moved (a
+  // rigid part): the tree's boxes are refitted, not rebuilt.
+  if (moved || sharp != sharp_ || tree_.empty()) {
+    boxes_.resize(sharp.size());
+    for (size_t k = 0; k < sharp.size(); ++k) {
+      Aabb& box = boxes_[k];
+      box.lo = box.hi = row3(x, edges_[sharp[k]][0]);
+      box.expand(row3(x, edges_[sharp[k]][1]));
+    }
+    if (!boxes_.empty()) {
+      if (sharp == sharp_ && !tree_.empty())
+        tree_.refit(boxes_);
+      else
+        tree_.build(boxes_);
+    }
   }
   sharp_.swap(sharp);
   separation_ = smallest_separation;
@@ -81,6 +90,7 @@ int SharpEdges::update(const Faces& faces, const Positions& x, double longest_cl
 void SharpEdges::advancing(const Positions& start, const Positions& end, double least,
                            std::vector<std::array<int, 2>>& out) const {
   if (is_sharp_.size() != edges_.size()) return;  // update() has not run
+  if (least >= 0.0 && same_bits(start, end)) return;  // nothing advances
   for (size_t e = 0; e < edges_.size(); ++e) {
     if (is_sharp_[e]) continue;
     const auto [f0, f1] = faces_[e];

@@ -24,7 +24,9 @@ class SharpEdges {
  public:
   // Edge topology of a body's faces (fixed for the body's life).
   explicit SharpEdges(const Faces& faces);
-  // The sharp edges at body positions x, and a tree over their boxes. Returns their count.
+  // The sharp edges at body positions x, and a tree over their boxes. Returns their count. The
+  // faces' normals and the edges' sharpness are recomputed only when x differs from the last
+  // call's (a body at rest), the boxes and the tree only when x or the sharp edges do.
   int update(const Faces& faces, const Positions& x, double longest_cloth_edge, double smallest_separation);
   bool empty() const { return sharp_.empty(); }
   int size() const { return static_cast<int>(sharp_.size()); }  // sharp edges (the tree's leaves)
@@ -44,7 +46,8 @@ class SharpEdges {
   // assumes cloth ends held at their separation by vertex contacts linearized at the step's
   // start; a body edge advancing by more than half a separation in one step (a fast limb
   // through a sheet) does not leave them there, and can reach a cloth edge between them
-  // (ContactDetection's point-by-point proximity pairs).
+  // (ContactDetection's point-by-point proximity pairs). None when start and end are the same
+  // positions and `least` is not negative.
   void advancing(const Positions& start, const Positions& end, double least,
                  std::vector<std::array<int, 2>>& out) const;
   double separation() const { return separation_; }  // update's smallest separation
@@ -63,7 +66,10 @@ class SharpEdges {
   std::vector<std::array<int, 2>> edges_;   // vertices, lower first
   std::vector<std::array<int, 2>> faces_;   // the edge's faces; [1] = -1 on a border
   std::vector<int> far_;                    // the second face's corner off the edge (-1 on a border)
+  Positions normals_at_;                    // the positions normals_ and edge_sharpness_ are of
   std::vector<Vec3> normals_;               // per update: unit face normals
+  std::vector<double> edge_sharpness_;      // per update: per edge, |n0 - n1| (2 on a border)
+  std::vector<char> convex_;                // per update: per edge, convex or a border
   std::vector<Aabb> boxes_;                 // per update: per sharp edge
   std::vector<int> sharp_;                  // per update: sharp edge ids, increasing
   std::vector<double> sharpness_;           // per update: per sharp edge

@@ -5,6 +5,7 @@
 #include <Eigen/Dense>
 #include <array>
 #include <cstdint>
+#include <cstring>
 #include <vector>
 
 namespace weft {
@@ -22,5 +23,9 @@ inline Eigen::Map<VectorX> flat(Positions& p) { return {p.data(), p.size()}; }
 inline Eigen::Map<const VectorX> flat(const Positions& p) { return {p.data(), p.size()}; }
 
 inline Vec3 row3(const Positions& p, int i) { return p.row(i).transpose(); }
+// The same rows with the same bits (a body that did not move between two calls).
+inline bool same_bits(const Positions& a, const Positions& b) {
+  return a.rows() == b.rows() && std::memcmp(a.data(), b.data(), sizeof(double) * static_cast<size_t>(a.size())) == 0;
+}
 
 }  // namespace weft
