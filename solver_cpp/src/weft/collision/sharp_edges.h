@@ -66,10 +66,10 @@ class SharpEdges {
   std::vector<std::array<int, 2>> edges_;   // vertices, lower first
   std::vector<std::array<int, 2>> faces_;   // the edge's faces; [1] = -1 on a border
   std::vector<int> far_;                    // the second face's corner off the edge (-1 on a border)
-  Positions normals_at_;                    // the positions normals_ and edge_sharpness_ are of
-  std::vector<Vec3> normals_;               // per update: unit face normals
-  std::vector<double> edge_sharpness_;      // per update: per edge, |n0 - n1| (2 on a border)
-  std::vector<char> convex_;                // per update: per edge, convex or a border
+  Positions normals_at_;                    // the positions the next three are of
+  std::vector<Vec3> normals_;               // unit face normals
+  std::vector<double> edge_sharpness_;      // per edge, |n0 - n1| (2 on a border)
+  std::vector<char> convex_;                // per edge, convex or a border
   std::vector<Aabb> boxes_;                 // per update: per sharp edge
   std::vector<int> sharp_;                  // per update: sharp edge ids, increasing
   std::vector<double> sharpness_;           // per update: per sharp edge
