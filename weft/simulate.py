@@ -100,8 +100,8 @@ def telemetry_row(frame: int, t: Any, governor: ThreadGovernor | None = None) ->
     fields = FrameTelemetry.model_fields
     values = {k: getattr(t, k) if info.is_required() or hasattr(t, k) else info.default
               for k, info in fields.items() if k not in {"frame", "cpu_wait_share"}}
-    if governor is not None and governor.last is not None:
-        values["cpu_wait_share"] = governor.last.cpu_wait_share
+    if governor is not None and governor.last_cpu_wait_share is not None:
+        values["cpu_wait_share"] = governor.last_cpu_wait_share
     return FrameTelemetry(frame=frame, **values)
 
 

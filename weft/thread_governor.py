@@ -31,7 +31,6 @@ import os
 import time
 from collections.abc import Iterator
 from contextlib import contextmanager
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -69,17 +68,11 @@ def governor_enabled() -> bool:
     return os.environ.get(ENVIRONMENT_SWITCH, "on").strip().lower() not in {"off", "0", "false", "no"}
 
 
-@dataclass(frozen=True)
-class FrameThreads:
-    """What the governor saw of one frame."""
-
-    threads: int  # solver threads the frame ran on
-    cpu_wait_share: float  # CPU wait per thread and wall second (0 where not measured)
-
-
 class ThreadGovernor:
     """Chooses the solver threads frame by frame for a Simulation (`sim.threads`) asked to run on
-    `requested` threads. Wrap each frame's solver call in `frame()`; `last` says what it saw.
+    `requested` threads. Wrap each frame's solver call in `frame()`; `last_cpu_wait_share` is
+    that frame's CPU wait per thread and wall second (0 where not measured; None before a frame;
+    the threads it ran on are in the solver's own frame telemetry).
     The CPU wait is measured wherever the kernel reports it; the threads change only when
     `adapting` (more than one requested, not switched off, and a solver build whose Simulation
     has `threads`: `bench.module_ab` loads older ones)."""
@@ -97,7 +90,7 @@ class ThreadGovernor:
         self.frames_since_change = 0
         self.contended_frames = 0  # frames in a row above CONTENDED_SHARE
         self.probing = False
-        self.last: FrameThreads | None = None
+        self.last_cpu_wait_share: float | None = None
         if self.settable and sim.threads != requested:
             sim.threads = requested
 
@@ -111,10 +104,10 @@ class ThreadGovernor:
         wall = time.perf_counter() - start
         wait_after = cpu_wait_seconds() if wait_before is not None else None
         if wait_before is None or wait_after is None or wall <= 0.0:
-            self.last = FrameThreads(threads, 0.0)
+            self.last_cpu_wait_share = 0.0
             return
         share = max(0.0, wait_after - wait_before) / (wall * threads)
-        self.last = FrameThreads(threads, share)
+        self.last_cpu_wait_share = share
         if self.adapting:
             self.choose(threads, share)
 
